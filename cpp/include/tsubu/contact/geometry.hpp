@@ -1,0 +1,30 @@
+// What the loop measures of one touching contact, once, before any law is evaluated.
+#pragma once
+#include "../types.hpp"
+
+namespace tsubu {
+
+struct ContactGeometry {
+  Vec3 n;          // unit normal from j (or the wall) to i (1.9)
+  double delta;    // overlap r_i + r_j - |x_ij| > 0 (1.7, 1.10); wall: r_i - distance (3.1)
+  double ci, cj;   // contraction radii r - delta/2 (roughness note 13); wall: cj = 0
+  double vn;       // (v_i - v_j) . n, negative while approaching (1.8)
+  Vec3 vt;         // tangential relative velocity of the contact points (1.12, lever c not r)
+  double m_eff;    // reduced mass m_i m_j / (m_i + m_j); wall: m_i
+  // Only filled for rolling friction:
+  Vec3 w_rel;      // omega_i - omega_j (wall: omega_i - omega_wall)
+  double ri, rj;   // radii (1.20); wall: rj = 0
+  double spin_mobility;  // r_i / I_i + r_j / I_j: how fast a rolling torque changes w_rel
+};
+
+// What a law returns for one contact. Forces and torques of the pair follow from it:
+//   F_i = force, F_j = -force;  T_i = -c_i n x F_t + r_i roll;  T_j = -c_j n x F_t - r_j roll.
+struct ContactResult {
+  Vec3 force = Vec3::Zero();     // total contact force on i
+  Vec3 n_cross_ft = Vec3::Zero();// n x F_t
+  Vec3 roll = Vec3::Zero();      // rolling-resistance vector R, M_ij = r_i R (1.20)
+  double fn = 0;                 // signed normal force on i along n (positive: repulsive)
+  double power = 0;              // rate of dissipation in this contact, W (>= 0)
+};
+
+}  // namespace tsubu

@@ -1,0 +1,202 @@
+// tsubu::Simulation: rigid spheres, plane walls, materials, and the time loop.
+//
+// Particles are stored as structure-of-arrays in an internal order that is re-sorted by cell at
+// every neighbour rebuild; every accessor speaks in stable ids (the order of addition).
+#pragma once
+#include <array>
+#include <string>
+#include <vector>
+
+#include "material.hpp"
+#include "types.hpp"
+
+namespace tsubu {
+
+// How the stored tangential displacement follows the contact (DESIGN.md note 3).
+enum class HistoryRule { Rotate = 0, Literal = 1 };
+
+struct Options {
+  Vec3 gravity = Vec3(0, 0, -9.81);  // m/s^2
+  double dt = 0;                     // s; 0: default_time_step()
+  int threads = 0;                   // 0: OpenMP's default
+  double skin = 0;                   // m; 0: 0.2 x the mean diameter
+  HistoryRule history = HistoryRule::Rotate;
+  double max_overlap = 0.5;          // instability if overlap > max_overlap x the smaller radius
+  double initial_overlap = 0.05;     // refused at the first run if an overlap exceeds this x radius
+  bool allow_unstable_dt = false;    // run with dt above critical_time_step()
+  bool rebuild_every_step = false;   // testing aid: rebuild the neighbour list every step
+};
+
+// A plane wall a x + b y + c z + d = 0 (3.1-3.2), stored as a point and a unit normal pointing to
+// the side where spheres live. It translates with `velocity` and rotates with `angular_velocity`
+// about `point`; the wall's velocity at a contact point enters the relative velocity.
+struct Plane {
+  Vec3 point = Vec3::Zero();
+  Vec3 normal = Vec3(0, 0, 1);
+  Vec3 velocity = Vec3::Zero();
+  Vec3 angular_velocity = Vec3::Zero();
+  int material = 0;
+  bool moving() const { return velocity.squaredNorm() > 0 || angular_velocity.squaredNorm() > 0; }
+};
+
+struct Energy {
+  double translational = 0, rotational = 0, gravitational = 0, elastic = 0, dissipated = 0;
+  double kinetic() const { return translational + rotational; }
+  // Mechanical energy; with fixed walls, total() + dissipated stays constant.
+  double total() const { return translational + rotational + gravitational + elastic; }
+};
+
+// One current contact, as evaluated at the start of the last step.
+struct ContactInfo {
+  Id i;           // particle id
+  Id j;           // partner particle id, or -1 for a wall
+  int wall;       // wall index, or -1 for a particle pair
+  double overlap; // m
+  Vec3 force;     // total contact force on i, N
+  Vec3 torque_i;  // torque on i from this contact, N m
+  Vec3 tangential_displacement;  // stored history xi, m (zero without friction)
+};
+
+namespace detail {
+template <class Law, bool MovingWalls>
+struct Stepper;
+}
+
+class Simulation {
+ public:
+  explicit Simulation(const Options& options = Options());
+
+  // ---- set-up ------------------------------------------------------------------------------
+  int add_material(const Material& m);
+  const Material& material(int index) const;
+  int material_count() const { return static_cast<int>(materials_.size()); }
+  // Overrides the mixed parameters of one pair of materials (both orders).
+  void set_pair_parameters(int a, int b, const PairParams& p);
+  PairParams pair_parameters(int a, int b) const;
+
+  // Adds n spheres (positions, velocities, angular velocities: 3n values; radii, materials: n).
+  // velocities / angular_velocities may be null (zero). Returns the id of the first.
+  Id add_spheres(std::size_t n, const double* positions, const double* radii,
+                 const int* materials, const double* velocities = nullptr,
+                 const double* angular_velocities = nullptr);
+  Id add_sphere(const Vec3& position, double radius, int material,
+                const Vec3& velocity = Vec3::Zero(), const Vec3& angular_velocity = Vec3::Zero());
+  int add_plane(const Vec3& point, const Vec3& normal, int material,
+                const Vec3& velocity = Vec3::Zero(), const Vec3& angular_velocity = Vec3::Zero());
+  void set_plane_motion(int wall, const Vec3& velocity, const Vec3& angular_velocity);
+  const Plane& plane(int wall) const;
+  int plane_count() const { return static_cast<int>(planes_.size()); }
+
+  Options& options() { return opt_; }
+  const Options& options() const { return opt_; }
+
+  // ---- time stepping -----------------------------------------------------------------------
+  // min over the scene's contact types of min(2 sqrt(m/k), 2 m/eta) (2.31), with the reduced
+  // mass of the lightest pair (walls: the lightest particle) and k = max(kn, 3.5 kt) (the
+  // tangential spring of a rolling sphere acts on m/3.5).
+  double critical_time_step() const;
+  // Shortest contact duration t_c = pi/alpha (B.3, B.5) over the scene's contact types.
+  double contact_duration() const;
+  // t_c / 50: contacts resolved by 50 steps.
+  double default_time_step() const;
+  // The step a run uses: options().dt, or default_time_step() when that is 0.
+  double time_step() const;
+  void run(long steps);
+  long step_count() const { return step_; }
+  double time() const { return time_; }
+  std::string law_name() const;  // the compiled specialisation the next run uses
+
+  // ---- state, in id order ------------------------------------------------------------------
+  std::size_t size() const { return n_; }
+  void get_positions(double* out) const { gather_by_id(x_.data(), out); }
+  void get_velocities(double* out) const { gather_by_id(v_.data(), out); }
+  void get_angular_velocities(double* out) const { gather_by_id(w_.data(), out); }
+  void get_forces(double* out) const;   // contact forces + m g of the last step
+  void get_torques(double* out) const { gather_by_id(t_.data(), out); }
+  void get_radii(double* out) const;
+  void get_masses(double* out) const;
+  void get_materials(int* out) const;
+  void set_positions(const double* in);
+  void set_velocities(const double* in) { scatter_by_id(in, v_.data()); }
+  void set_angular_velocities(const double* in) { scatter_by_id(in, w_.data()); }
+
+  Energy energy() const;
+  std::vector<ContactInfo> contacts() const;
+
+  // ---- neighbour list ----------------------------------------------------------------------
+  void rebuild_neighbors();
+  // Pairs in the current list (ids, lower first): all pairs within r_i + r_j + skin.
+  std::vector<std::array<Id, 2>> neighbor_pairs() const;
+  long rebuild_count() const { return rebuilds_; }
+  double skin() const;
+
+ private:
+  template <class Law, bool MovingWalls>
+  friend struct detail::Stepper;
+
+  void gather_by_id(const double* src, double* out) const;
+  void scatter_by_id(const double* in, double* dst);
+  void prepare_run();
+  void mix_pairs();
+  void check_initial_overlaps() const;
+  bool needs_rebuild() const;
+  void move_planes(double dt);
+  [[noreturn]] void report_overlap(double dt) const;
+  [[noreturn]] void report_nonfinite() const;
+  int threads() const;
+  template <class F>
+  void for_each_contact_type(F&& f) const;
+
+  Options opt_;
+  std::vector<Material> materials_;
+  PairTable pairs_;
+  std::vector<std::array<int, 3>> overrides_key_;
+  std::vector<PairParams> overrides_;
+  std::vector<Plane> planes_;
+
+  // Particles (internal order).
+  std::size_t n_ = 0;
+  std::vector<double> x_, v_, w_, f_, t_, x_ref_;
+  std::vector<double> radius_, mass_, inv_mass_, inv_inertia_, dissipated_;
+  std::vector<int> material_;
+  std::vector<Id> id_;
+  std::vector<Index> index_of_;  // id -> internal index
+
+  // Half neighbour list: each pair once, owned by the lower id; entries of an owner sorted by
+  // partner id, and a reverse index sorted by owner id, so every particle sums its contacts in
+  // ascending partner-id order whatever the internal order and thread count.
+  std::vector<Index> pair_offset_, pair_partner_, pair_owner_, rev_offset_, rev_entry_;
+  std::vector<Index> wall_offset_, wall_index_;
+  // Per-entry history (tangential displacement) and results of the last evaluation.
+  std::vector<double> pair_xi_, pair_force_, pair_nxft_, pair_roll_, pair_overlap_, pair_power_;
+  std::vector<double> wall_xi_, wall_force_, wall_nxft_, wall_roll_, wall_overlap_, wall_power_;
+  // Neighbour-list bookkeeping.
+  bool list_valid_ = false;
+  double list_skin_ = 0;
+  double max_disp2_ = 0;             // max squared displacement since the last rebuild
+  std::vector<Vec3> plane_point_ref_, plane_normal_ref_;
+  double plane_reach_ = 0;           // max distance from a plane's point to the particles
+  long rebuilds_ = 0;
+  // Scratch reused by rebuilds (no allocation once warm).
+  std::vector<Index> cell_start_, cell_of_, perm_, old_offset_, old_wall_offset_, old_index_of_;
+  std::vector<Id> old_partner_id_;
+  std::vector<Index> old_wall_index_;
+  std::vector<double> old_xi_, old_wall_xi_, scratch_;
+  std::vector<int> scratch_int_;
+  std::vector<Id> scratch_id_;
+
+  // Run state.
+  long step_ = 0;
+  double time_ = 0;
+  bool ran_ = false;
+  double dt_ = 0;
+  bool has_history_ = false;  // the law of the current run keeps a tangential displacement
+  bool has_rolling_ = false;
+
+  // The rebuild (neighbor.cpp).
+  void rebuild(bool keep_history);
+  void size_entry_buffers();
+  void sort_by_cell(double cell_size, const Vec3& lo, const std::array<long, 3>& dims);
+};
+
+}  // namespace tsubu

@@ -1,0 +1,36 @@
+// Basic types shared by every part of the core.
+#pragma once
+#include <Eigen/Core>
+#include <Eigen/Geometry>
+#include <cstdint>
+#include <stdexcept>
+#include <string>
+
+namespace tsubu {
+
+using Vec3 = Eigen::Vector3d;
+using Index = std::int32_t;   // internal (sorted) particle index
+using Id = std::int64_t;      // stable particle id: the order in which spheres were added
+
+// Particle state is stored as flat xyz-interleaved arrays (one array per quantity); these views
+// read and write one particle's triple without copying.
+inline Eigen::Map<Vec3> vec3(double* a, std::size_t i) { return Eigen::Map<Vec3>(a + 3 * i); }
+inline Eigen::Map<const Vec3> vec3(const double* a, std::size_t i) {
+  return Eigen::Map<const Vec3>(a + 3 * i);
+}
+
+// Thrown for bad arguments from C++ callers (the Python layer checks first and names arguments).
+struct InvalidArgument : std::invalid_argument {
+  using std::invalid_argument::invalid_argument;
+};
+
+// Thrown when a run becomes unstable (non-finite values, excessive overlap). The state of the
+// step before the failing one is left in place.
+struct InstabilityError : std::runtime_error {
+  InstabilityError(const std::string& what, long step, Id particle)
+      : std::runtime_error(what), step(step), particle(particle) {}
+  long step;
+  Id particle;
+};
+
+}  // namespace tsubu

@@ -1,0 +1,291 @@
+// Linked cells with a skin (Verlet list): the half pair list, the near-wall list, the sort of
+// particles by cell, and the transfer of contact history across rebuilds.
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+#include "tsubu/simulation.hpp"
+
+namespace tsubu {
+
+namespace {
+
+template <class Key>
+void insertion_sort(Index* first, Index* last, Key key) {
+  for (Index* a = first + 1; a < last; ++a) {
+    const Index v = *a;
+    const auto kv = key(v);
+    Index* b = a;
+    for (; b > first && key(*(b - 1)) > kv; --b) *b = *(b - 1);
+    *b = v;
+  }
+}
+
+template <class T>
+void permute(std::vector<T>& a, const std::vector<Index>& perm, int width, std::vector<T>& scratch) {
+  scratch.resize(a.size());
+  const std::size_t n = perm.size();
+  for (std::size_t k = 0; k < n; ++k)
+    for (int c = 0; c < width; ++c) scratch[width * k + c] = a[width * perm[k] + c];
+  a.swap(scratch);
+}
+
+}  // namespace
+
+bool Simulation::needs_rebuild() const {
+  if (!list_valid_ || opt_.rebuild_every_step) return true;
+  const double md = std::sqrt(max_disp2_);
+  if (2.0 * md > list_skin_) return true;  // two particles closing by skin
+  for (std::size_t w = 0; w < planes_.size(); ++w) {
+    const Plane& p = planes_[w];
+    if (!p.moving()) continue;
+    // |change of the signed distance| <= |n.(p - p0)| + |n - n0| |x - p0| for any particle.
+    const double shift = std::abs(p.normal.dot(p.point - plane_point_ref_[w])) +
+                         (p.normal - plane_normal_ref_[w]).norm() * (plane_reach_ + list_skin_);
+    if (md + shift > list_skin_) return true;
+  }
+  return false;
+}
+
+void Simulation::rebuild_neighbors() {
+  mix_pairs();
+  rebuild(true);
+}
+
+void Simulation::sort_by_cell(double h, const Vec3& lo, const std::array<long, 3>& dims) {
+  const std::size_t n = n_;
+  const long ncell = dims[0] * dims[1] * dims[2];
+  cell_of_.resize(n);
+  for (std::size_t k = 0; k < n; ++k) {
+    long c[3];
+    for (int d = 0; d < 3; ++d)
+      c[d] = std::clamp(static_cast<long>((x_[3 * k + d] - lo[d]) / h), 0L, dims[d] - 1);
+    cell_of_[k] = static_cast<Index>((c[2] * dims[1] + c[1]) * dims[0] + c[0]);
+  }
+  cell_start_.assign(ncell + 1, 0);
+  for (std::size_t k = 0; k < n; ++k) ++cell_start_[cell_of_[k] + 1];
+  for (long c = 0; c < ncell; ++c) cell_start_[c + 1] += cell_start_[c];
+  perm_.resize(n);
+  {
+    std::vector<Index>& fill = scratch_int_;
+    fill.assign(cell_start_.begin(), cell_start_.end() - 1);
+    for (std::size_t k = 0; k < n; ++k) perm_[fill[cell_of_[k]]++] = static_cast<Index>(k);
+  }
+  permute(x_, perm_, 3, scratch_);
+  permute(v_, perm_, 3, scratch_);
+  permute(w_, perm_, 3, scratch_);
+  permute(f_, perm_, 3, scratch_);
+  permute(t_, perm_, 3, scratch_);
+  permute(radius_, perm_, 1, scratch_);
+  permute(mass_, perm_, 1, scratch_);
+  permute(inv_mass_, perm_, 1, scratch_);
+  permute(inv_inertia_, perm_, 1, scratch_);
+  permute(dissipated_, perm_, 1, scratch_);
+  permute(material_, perm_, 1, scratch_int_);
+  permute(id_, perm_, 1, scratch_id_);
+  index_of_.resize(n);
+  for (std::size_t k = 0; k < n; ++k) index_of_[id_[k]] = static_cast<Index>(k);
+}
+
+void Simulation::rebuild(bool keep_history) {
+  const std::size_t n = n_;
+  const double skin = this->skin();
+  list_skin_ = skin;
+
+  // 1. Remember the old lists and their history in terms of ids.
+  const bool transfer = keep_history && has_history_ && !pair_offset_.empty() &&
+                        pair_xi_.size() == 3 * pair_partner_.size();
+  const bool transfer_walls = keep_history && has_history_ && !wall_offset_.empty() &&
+                              wall_xi_.size() == 3 * wall_index_.size();
+  std::size_t old_n = 0;
+  if (transfer || transfer_walls) {
+    old_n = pair_offset_.size() - 1;
+    old_offset_.swap(pair_offset_);
+    old_partner_id_.resize(pair_partner_.size());
+    for (std::size_t e = 0; e < pair_partner_.size(); ++e) old_partner_id_[e] = id_[pair_partner_[e]];
+    old_xi_.swap(pair_xi_);
+    old_wall_offset_.swap(wall_offset_);
+    old_wall_index_.swap(wall_index_);
+    old_wall_xi_.swap(wall_xi_);
+    old_index_of_ = index_of_;
+  }
+
+  // 2. Cells: the bounding box of the particles, cells no smaller than the largest cutoff.
+  Vec3 lo = Vec3::Constant(std::numeric_limits<double>::infinity()), hi = -lo;
+  double rmax = 0;
+  for (std::size_t k = 0; k < n; ++k) {
+    lo = lo.cwiseMin(Vec3(vec3(x_.data(), k)));
+    hi = hi.cwiseMax(Vec3(vec3(x_.data(), k)));
+    rmax = std::max(rmax, radius_[k]);
+  }
+  if (n == 0) lo = hi = Vec3::Zero();
+  double h = 2.0 * rmax + skin;
+  std::array<long, 3> dims{};
+  const double max_cells = 2.0 * static_cast<double>(n) + 1000.0;
+  for (;;) {
+    double total = 1;
+    for (int d = 0; d < 3; ++d) {
+      dims[d] = static_cast<long>(std::floor((hi[d] - lo[d]) / h)) + 1;
+      total *= static_cast<double>(dims[d]);
+    }
+    if (total <= max_cells) break;
+    h *= 1.25;  // a sparse scene: fewer, larger cells keep memory O(N)
+  }
+  sort_by_cell(h, lo, dims);
+
+  // 3. Half pair list, each pair owned by its lower id: count, prefix sum, fill, sort.
+  pair_offset_.assign(n + 1, 0);
+  const double* x = x_.data();
+  const double* r = radius_.data();
+  auto for_each_neighbor = [&](Index i, auto&& visit) {
+    const Vec3 xi = vec3(x, i);
+    long c[3];
+    for (int d = 0; d < 3; ++d)
+      c[d] = std::clamp(static_cast<long>((xi[d] - lo[d]) / h), 0L, dims[d] - 1);
+    for (long cz = std::max(c[2] - 1, 0L); cz <= std::min(c[2] + 1, dims[2] - 1); ++cz)
+      for (long cy = std::max(c[1] - 1, 0L); cy <= std::min(c[1] + 1, dims[1] - 1); ++cy)
+        for (long cx = std::max(c[0] - 1, 0L); cx <= std::min(c[0] + 1, dims[0] - 1); ++cx) {
+          const long cell = (cz * dims[1] + cy) * dims[0] + cx;
+          for (Index j = cell_start_[cell]; j < cell_start_[cell + 1]; ++j) {
+            if (id_[j] <= id_[i]) continue;
+            const double cut = r[i] + r[j] + skin;
+            if ((xi - vec3(x, j)).squaredNorm() < cut * cut) visit(j);
+          }
+        }
+  };
+  const Index ni = static_cast<Index>(n);
+#pragma omp parallel for schedule(static) num_threads(threads())
+  for (Index i = 0; i < ni; ++i) {
+    Index count = 0;
+    for_each_neighbor(i, [&](Index) { ++count; });
+    pair_offset_[i + 1] = count;
+  }
+  for (std::size_t i = 0; i < n; ++i) pair_offset_[i + 1] += pair_offset_[i];
+  const std::size_t m = static_cast<std::size_t>(pair_offset_[n]);
+  pair_partner_.resize(m);
+  pair_owner_.resize(m);
+#pragma omp parallel for schedule(static) num_threads(threads())
+  for (Index i = 0; i < ni; ++i) {
+    Index e = pair_offset_[i];
+    for_each_neighbor(i, [&](Index j) {
+      pair_owner_[e] = i;
+      pair_partner_[e++] = j;
+    });
+    insertion_sort(pair_partner_.data() + pair_offset_[i], pair_partner_.data() + pair_offset_[i + 1],
+                   [&](Index j) { return id_[j]; });
+  }
+
+  // 4. Reverse index: for each particle, the entries where it is the partner, by owner id.
+  rev_offset_.assign(n + 1, 0);
+  for (std::size_t e = 0; e < m; ++e) ++rev_offset_[pair_partner_[e] + 1];
+  for (std::size_t i = 0; i < n; ++i) rev_offset_[i + 1] += rev_offset_[i];
+  rev_entry_.resize(m);
+  {
+    std::vector<Index>& fill = scratch_int_;
+    fill.assign(rev_offset_.begin(), rev_offset_.end() - 1);
+    for (std::size_t e = 0; e < m; ++e) rev_entry_[fill[pair_partner_[e]]++] = static_cast<Index>(e);
+  }
+#pragma omp parallel for schedule(static) num_threads(threads())
+  for (Index i = 0; i < ni; ++i)
+    insertion_sort(rev_entry_.data() + rev_offset_[i], rev_entry_.data() + rev_offset_[i + 1],
+                   [&](Index e) { return id_[pair_owner_[e]]; });
+
+  // 5. Near-wall list: particles within r + skin of a plane (or behind it).
+  wall_offset_.assign(n + 1, 0);
+  const std::size_t nw = planes_.size();
+  for (std::size_t i = 0; i < n; ++i) {
+    Index count = 0;
+    for (std::size_t w = 0; w < nw; ++w)
+      if (planes_[w].normal.dot(vec3(x, i) - planes_[w].point) < r[i] + skin) ++count;
+    wall_offset_[i + 1] = wall_offset_[i] + count;
+  }
+  wall_index_.resize(static_cast<std::size_t>(wall_offset_[n]));
+  for (std::size_t i = 0; i < n; ++i) {
+    Index e = wall_offset_[i];
+    for (std::size_t w = 0; w < nw; ++w)
+      if (planes_[w].normal.dot(vec3(x, i) - planes_[w].point) < r[i] + skin)
+        wall_index_[e++] = static_cast<Index>(w);
+  }
+
+  // 6. Per-entry buffers, and the history carried over by (owner id, partner id / wall).
+  size_entry_buffers();
+  std::fill(pair_xi_.begin(), pair_xi_.end(), 0.0);
+  std::fill(wall_xi_.begin(), wall_xi_.end(), 0.0);
+  std::fill(pair_overlap_.begin(), pair_overlap_.end(), 0.0);  // no contact until evaluated
+  std::fill(wall_overlap_.begin(), wall_overlap_.end(), 0.0);
+  if (transfer || transfer_walls) {
+#pragma omp parallel for schedule(static) num_threads(threads())
+    for (Index i = 0; i < ni; ++i) {
+      const Id a = id_[i];
+      if (a >= static_cast<Id>(old_index_of_.size())) continue;
+      const Index oi = old_index_of_[a];
+      if (static_cast<std::size_t>(oi) >= old_n) continue;
+      if (transfer) {
+        for (Index e = pair_offset_[i]; e < pair_offset_[i + 1]; ++e) {
+          const Id b = id_[pair_partner_[e]];
+          for (Index q = old_offset_[oi]; q < old_offset_[oi + 1]; ++q)
+            if (old_partner_id_[q] == b) {
+              std::copy(&old_xi_[3 * q], &old_xi_[3 * q] + 3, &pair_xi_[3 * e]);
+              break;
+            }
+        }
+      }
+      if (transfer_walls) {
+        for (Index e = wall_offset_[i]; e < wall_offset_[i + 1]; ++e)
+          for (Index q = old_wall_offset_[oi]; q < old_wall_offset_[oi + 1]; ++q)
+            if (old_wall_index_[q] == wall_index_[e]) {
+              std::copy(&old_wall_xi_[3 * q], &old_wall_xi_[3 * q] + 3, &wall_xi_[3 * e]);
+              break;
+            }
+      }
+    }
+  }
+
+  // 7. Reference state for the rebuild criterion.
+  x_ref_ = x_;
+  max_disp2_ = 0;
+  plane_point_ref_.resize(nw);
+  plane_normal_ref_.resize(nw);
+  plane_reach_ = 0;
+  for (std::size_t w = 0; w < nw; ++w) {
+    plane_point_ref_[w] = planes_[w].point;
+    plane_normal_ref_[w] = planes_[w].normal;
+    for (int corner = 0; corner < 8; ++corner) {
+      const Vec3 c((corner & 1) ? hi.x() : lo.x(), (corner & 2) ? hi.y() : lo.y(),
+                   (corner & 4) ? hi.z() : lo.z());
+      plane_reach_ = std::max(plane_reach_, (c - planes_[w].point).norm());
+    }
+  }
+  list_valid_ = true;
+  ++rebuilds_;
+}
+
+void Simulation::size_entry_buffers() {
+  const std::size_t m = pair_partner_.size(), k = wall_index_.size();
+  pair_overlap_.resize(m, 0.0);
+  pair_force_.resize(3 * m, 0.0);
+  pair_power_.resize(m, 0.0);
+  wall_overlap_.resize(k, 0.0);
+  wall_force_.resize(3 * k, 0.0);
+  wall_power_.resize(k, 0.0);
+  const std::size_t mt = has_history_ ? m : 0, kt = has_history_ ? k : 0;
+  pair_xi_.resize(3 * mt, 0.0);
+  pair_nxft_.resize(3 * mt, 0.0);
+  wall_xi_.resize(3 * kt, 0.0);
+  wall_nxft_.resize(3 * kt, 0.0);
+  const std::size_t mr = has_rolling_ ? m : 0, kr = has_rolling_ ? k : 0;
+  pair_roll_.resize(3 * mr, 0.0);
+  wall_roll_.resize(3 * kr, 0.0);
+}
+
+std::vector<std::array<Id, 2>> Simulation::neighbor_pairs() const {
+  std::vector<std::array<Id, 2>> out;
+  if (pair_offset_.size() != n_ + 1) return out;
+  for (std::size_t i = 0; i < n_; ++i)
+    for (Index e = pair_offset_[i]; e < pair_offset_[i + 1]; ++e)
+      out.push_back({id_[i], id_[pair_partner_[e]]});
+  std::sort(out.begin(), out.end());
+  return out;
+}
+
+}  // namespace tsubu

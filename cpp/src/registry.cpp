@@ -1,0 +1,57 @@
+// Instantiates the time loop once per combination of features (X-macro below), and maps a
+// LawKey to it. Adding a law: write its evaluator, add a TangentialKind/flag, add a line here.
+#include "tsubu/registry.hpp"
+
+#include "tsubu/step.hpp"
+
+namespace tsubu {
+namespace {
+
+template <class T, class R, bool Moving>
+void step_fn(Simulation& s, long steps) {
+  detail::Stepper<ContactLaw<T, R>, Moving>::run(s, steps);
+}
+
+struct Entry {
+  TangentialKind tangential;
+  bool rolling;
+  bool moving;
+  StepFunction fn;
+};
+
+#define TSUBU_LAWS(X)                                  \
+  X(None, NoTangential, false, NoRolling)              \
+  X(None, NoTangential, true, RollingFriction)         \
+  X(Rotate, TangentialRotate, false, NoRolling)        \
+  X(Rotate, TangentialRotate, true, RollingFriction)   \
+  X(Literal, TangentialLiteral, false, NoRolling)      \
+  X(Literal, TangentialLiteral, true, RollingFriction)
+
+#define TSUBU_ENTRY(KIND, T, ROLL, R)                      \
+  {TangentialKind::KIND, ROLL, false, &step_fn<T, R, false>}, \
+  {TangentialKind::KIND, ROLL, true, &step_fn<T, R, true>},
+
+const Entry kRegistry[] = {TSUBU_LAWS(TSUBU_ENTRY)};
+
+const Entry& lookup(const LawKey& key) {
+  for (const Entry& e : kRegistry)
+    if (e.tangential == key.tangential && e.rolling == key.rolling && e.moving == key.moving_walls)
+      return e;
+  throw InvalidArgument("no compiled contact law for this combination of features");
+}
+
+}  // namespace
+
+StepFunction find_stepper(const LawKey& key) { return lookup(key).fn; }
+
+std::string law_name(const LawKey& key) {
+  std::string s = "hooke";
+  s += key.tangential == TangentialKind::None     ? "+frictionless"
+       : key.tangential == TangentialKind::Rotate ? "+friction(rotate)"
+                                                  : "+friction(literal)";
+  if (key.rolling) s += "+rolling";
+  s += key.moving_walls ? "+moving-walls" : "";
+  return s;
+}
+
+}  // namespace tsubu

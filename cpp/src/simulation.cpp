@@ -1,0 +1,487 @@
+#include "tsubu/simulation.hpp"
+
+#include <Eigen/Geometry>
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <sstream>
+
+#include "tsubu/contact/normal.hpp"
+#include "tsubu/registry.hpp"
+
+#ifdef TSUBU_HAVE_OPENMP
+#include <omp.h>
+#endif
+
+namespace tsubu {
+
+namespace {
+
+std::string fmt(double x) {
+  std::ostringstream o;
+  o.precision(6);
+  o << x;
+  return o.str();
+}
+
+void require(bool ok, const std::string& what) {
+  if (!ok) throw InvalidArgument(what);
+}
+
+bool finite3(const double* p) {
+  return std::isfinite(p[0]) && std::isfinite(p[1]) && std::isfinite(p[2]);
+}
+
+}  // namespace
+
+Simulation::Simulation(const Options& options) : opt_(options) {}
+
+int Simulation::threads() const {
+#ifdef TSUBU_HAVE_OPENMP
+  return opt_.threads > 0 ? opt_.threads : omp_get_max_threads();
+#else
+  return 1;
+#endif
+}
+
+// ---- materials ------------------------------------------------------------------------------
+
+int Simulation::add_material(const Material& m) {
+  require(m.density > 0 && std::isfinite(m.density), "density must be > 0, got " + fmt(m.density));
+  require(m.kn > 0 && std::isfinite(m.kn), "kn must be > 0, got " + fmt(m.kn));
+  require(m.kt >= 0 && std::isfinite(m.kt), "kt must be >= 0, got " + fmt(m.kt));
+  require(m.restitution > 0 && m.restitution <= 1,
+          "restitution must be in (0, 1], got " + fmt(m.restitution));
+  require(m.friction >= 0 && std::isfinite(m.friction),
+          "friction must be >= 0, got " + fmt(m.friction));
+  require(m.rolling_friction >= 0 && std::isfinite(m.rolling_friction),
+          "rolling_friction must be >= 0, got " + fmt(m.rolling_friction));
+  require(m.tangential_damping >= 0 && std::isfinite(m.tangential_damping),
+          "tangential_damping must be >= 0, got " + fmt(m.tangential_damping));
+  materials_.push_back(m);
+  return static_cast<int>(materials_.size()) - 1;
+}
+
+const Material& Simulation::material(int index) const {
+  require(index >= 0 && index < material_count(), "no material " + std::to_string(index));
+  return materials_[index];
+}
+
+void Simulation::set_pair_parameters(int a, int b, const PairParams& p) {
+  material(a);
+  material(b);
+  require(p.kn > 0 && p.kt >= 0, "pair stiffnesses must be kn > 0, kt >= 0");
+  require(p.restitution > 0 && p.restitution <= 1, "pair restitution must be in (0, 1]");
+  require(p.friction >= 0 && p.rolling_friction >= 0 && p.tangential_damping >= 0,
+          "pair friction coefficients must be >= 0");
+  PairParams q = p;
+  q.finalise();
+  for (std::size_t k = 0; k < overrides_key_.size(); ++k) {
+    const auto& key = overrides_key_[k];
+    if ((key[0] == a && key[1] == b) || (key[0] == b && key[1] == a)) {
+      overrides_[k] = q;
+      return;
+    }
+  }
+  overrides_key_.push_back({a, b, 0});
+  overrides_.push_back(q);
+}
+
+PairParams Simulation::pair_parameters(int a, int b) const {
+  for (std::size_t k = 0; k < overrides_key_.size(); ++k) {
+    const auto& key = overrides_key_[k];
+    if ((key[0] == a && key[1] == b) || (key[0] == b && key[1] == a)) return overrides_[k];
+  }
+  return mix(material(a), material(b));
+}
+
+void Simulation::mix_pairs() {
+  const std::size_t nm = materials_.size();
+  pairs_.resize(nm);
+  for (std::size_t a = 0; a < nm; ++a)
+    for (std::size_t b = a; b < nm; ++b)
+      pairs_.set(a, b, pair_parameters(static_cast<int>(a), static_cast<int>(b)));
+}
+
+// ---- particles and walls ----------------------------------------------------------------------
+
+Id Simulation::add_spheres(std::size_t n, const double* positions, const double* radii,
+                           const int* materials, const double* velocities,
+                           const double* angular_velocities) {
+  for (std::size_t k = 0; k < n; ++k) {
+    require(finite3(positions + 3 * k), "position of sphere " + std::to_string(k) + " is not finite");
+    require(radii[k] > 0 && std::isfinite(radii[k]),
+            "radius of sphere " + std::to_string(k) + " must be > 0, got " + fmt(radii[k]));
+    material(materials[k]);
+    if (velocities)
+      require(finite3(velocities + 3 * k), "velocity of sphere " + std::to_string(k) + " is not finite");
+    if (angular_velocities)
+      require(finite3(angular_velocities + 3 * k),
+              "angular velocity of sphere " + std::to_string(k) + " is not finite");
+  }
+  const Id first = static_cast<Id>(n_);
+  for (std::size_t k = 0; k < n; ++k) {
+    const double r = radii[k];
+    const double m = materials_[materials[k]].density * 4.0 / 3.0 * M_PI * r * r * r;
+    for (int c = 0; c < 3; ++c) {
+      x_.push_back(positions[3 * k + c]);
+      v_.push_back(velocities ? velocities[3 * k + c] : 0.0);
+      w_.push_back(angular_velocities ? angular_velocities[3 * k + c] : 0.0);
+      f_.push_back(0.0);
+      t_.push_back(0.0);
+      x_ref_.push_back(positions[3 * k + c]);
+    }
+    radius_.push_back(r);
+    mass_.push_back(m);
+    inv_mass_.push_back(1.0 / m);
+    inv_inertia_.push_back(1.0 / (0.4 * m * r * r));  // I = 2/5 m r^2 (1.3)
+    dissipated_.push_back(0.0);
+    material_.push_back(materials[k]);
+    id_.push_back(static_cast<Id>(n_));
+    index_of_.push_back(static_cast<Index>(n_));
+    ++n_;
+  }
+  list_valid_ = false;
+  return first;
+}
+
+Id Simulation::add_sphere(const Vec3& position, double radius, int material,
+                          const Vec3& velocity, const Vec3& angular_velocity) {
+  return add_spheres(1, position.data(), &radius, &material, velocity.data(),
+                     angular_velocity.data());
+}
+
+int Simulation::add_plane(const Vec3& point, const Vec3& normal, int material_index,
+                          const Vec3& velocity, const Vec3& angular_velocity) {
+  require(point.allFinite(), "plane point is not finite");
+  require(normal.allFinite() && normal.norm() > 0, "plane normal must be a non-zero finite vector");
+  require(velocity.allFinite() && angular_velocity.allFinite(), "plane motion is not finite");
+  material(material_index);
+  Plane p;
+  p.point = point;
+  p.normal = normal.normalized();
+  p.velocity = velocity;
+  p.angular_velocity = angular_velocity;
+  p.material = material_index;
+  planes_.push_back(p);
+  list_valid_ = false;
+  return static_cast<int>(planes_.size()) - 1;
+}
+
+void Simulation::set_plane_motion(int wall, const Vec3& velocity, const Vec3& angular_velocity) {
+  require(wall >= 0 && wall < plane_count(), "no wall " + std::to_string(wall));
+  require(velocity.allFinite() && angular_velocity.allFinite(), "plane motion is not finite");
+  planes_[wall].velocity = velocity;
+  planes_[wall].angular_velocity = angular_velocity;
+  list_valid_ = false;  // the rebuild criterion now accounts for this wall's motion
+}
+
+const Plane& Simulation::plane(int wall) const {
+  require(wall >= 0 && wall < plane_count(), "no wall " + std::to_string(wall));
+  return planes_[wall];
+}
+
+void Simulation::move_planes(double dt) {
+  for (Plane& p : planes_) {
+    p.point += dt * p.velocity;
+    const double angle = p.angular_velocity.norm() * dt;
+    if (angle > 0) {
+      const Vec3 axis = p.angular_velocity.normalized();
+      p.normal = Eigen::AngleAxisd(angle, axis) * p.normal;
+      p.normal.normalize();
+    }
+  }
+}
+
+// ---- time step ---------------------------------------------------------------------------
+
+// Calls f(params, m_eff) for every kind of contact the scene can have: each pair of particle
+// materials present (reduced mass of their lightest particles) and each particle material
+// against each wall material (mass of the lightest particle).
+template <class F>
+void Simulation::for_each_contact_type(F&& f) const {
+  const std::size_t nm = materials_.size();
+  std::vector<double> lightest(nm, std::numeric_limits<double>::infinity());
+  for (std::size_t k = 0; k < n_; ++k)
+    lightest[material_[k]] = std::min(lightest[material_[k]], mass_[k]);
+  std::vector<char> wall_material(nm, 0);
+  for (const Plane& p : planes_) wall_material[p.material] = 1;
+  for (std::size_t a = 0; a < nm; ++a) {
+    if (!std::isfinite(lightest[a])) continue;
+    for (std::size_t b = a; b < nm; ++b) {
+      if (!std::isfinite(lightest[b]) || n_ < 2) continue;
+      const double ma = lightest[a], mb = lightest[b];
+      f(pair_parameters(int(a), int(b)), ma * mb / (ma + mb));
+    }
+    for (std::size_t b = 0; b < nm; ++b)
+      if (wall_material[b]) f(pair_parameters(int(a), int(b)), lightest[a]);
+  }
+}
+
+double Simulation::critical_time_step() const {
+  double bound = std::numeric_limits<double>::infinity();
+  for_each_contact_type([&](const PairParams& p, double m) {
+    const double k = std::max(p.kn, 3.5 * p.kt);
+    const double eta_n = HookeNormal::damping(p, m);
+    const double eta_t = 3.5 * p.tangential_damping * eta_n;
+    bound = std::min(bound, 2.0 * std::sqrt(m / k));  // (2.24)
+    if (eta_n > 0) bound = std::min(bound, 2.0 * m / eta_n);  // (2.30)
+    if (p.friction > 0 && eta_t > 0) bound = std::min(bound, 2.0 * m / eta_t);
+  });
+  return bound;
+}
+
+double Simulation::contact_duration() const {
+  double tc = std::numeric_limits<double>::infinity();
+  for_each_contact_type([&](const PairParams& p, double m) {
+    const double eta = HookeNormal::damping(p, m);
+    const double alpha = std::sqrt(p.kn / m - eta * eta / (4 * m * m));  // (B.3)
+    tc = std::min(tc, M_PI / alpha);                                     // (B.5)
+  });
+  return tc;
+}
+
+double Simulation::default_time_step() const { return contact_duration() / 50.0; }
+
+double Simulation::time_step() const { return opt_.dt > 0 ? opt_.dt : default_time_step(); }
+
+double Simulation::skin() const {
+  if (opt_.skin > 0) return opt_.skin;
+  if (n_ == 0) return 0;
+  double sum = 0;
+  for (double r : radius_) sum += r;
+  return 0.2 * 2.0 * sum / static_cast<double>(n_);
+}
+
+static LawKey law_key(const std::vector<Material>& materials, const PairTable& pairs,
+                      const std::vector<Plane>& planes, HistoryRule rule) {
+  LawKey key;
+  bool friction = false, rolling = false;
+  for (std::size_t a = 0; a < materials.size(); ++a)
+    for (std::size_t b = 0; b < materials.size(); ++b) {
+      const PairParams& p = pairs(a, b);
+      friction |= p.friction > 0 && p.kt > 0;
+      rolling |= p.rolling_friction > 0;
+    }
+  if (friction)
+    key.tangential = rule == HistoryRule::Rotate ? TangentialKind::Rotate : TangentialKind::Literal;
+  key.rolling = rolling;
+  for (const Plane& p : planes) key.moving_walls |= p.moving();
+  return key;
+}
+
+std::string Simulation::law_name() const {
+  PairTable t;
+  const std::size_t nm = materials_.size();
+  t.resize(nm);
+  for (std::size_t a = 0; a < nm; ++a)
+    for (std::size_t b = a; b < nm; ++b) t.set(a, b, pair_parameters(int(a), int(b)));
+  return tsubu::law_name(law_key(materials_, t, planes_, opt_.history));
+}
+
+void Simulation::prepare_run() {
+  require(opt_.gravity.allFinite(), "gravity is not finite");
+  require(opt_.max_overlap > 0, "max_overlap must be > 0");
+  mix_pairs();
+  dt_ = time_step();
+  require(std::isfinite(dt_) && dt_ > 0,
+          "no time step: the scene has no possible contact to derive one from; set dt");
+  const double crit = critical_time_step();
+  if (dt_ > crit && !opt_.allow_unstable_dt)
+    throw InvalidArgument("dt = " + fmt(dt_) + " s exceeds the stability bound " + fmt(crit) +
+                          " s of (2.31) for this scene; use a smaller dt or allow_unstable_dt");
+  const LawKey key = law_key(materials_, pairs_, planes_, opt_.history);
+  has_history_ = key.tangential != TangentialKind::None;
+  has_rolling_ = key.rolling;
+  if (key.tangential == TangentialKind::None && !key.rolling)
+    std::fill(t_.begin(), t_.end(), 0.0);
+  if (!list_valid_) rebuild(true);
+  size_entry_buffers();
+  if (!ran_) check_initial_overlaps();
+  ran_ = true;
+}
+
+void Simulation::run(long steps) {
+  require(steps >= 0, "steps must be >= 0, got " + std::to_string(steps));
+  if (n_ == 0 || steps == 0) {
+    if (n_ == 0 && steps > 0) {
+      prepare_run();
+      step_ += steps;
+      time_ += steps * dt_;
+    }
+    return;
+  }
+  prepare_run();
+  const LawKey key = law_key(materials_, pairs_, planes_, opt_.history);
+  find_stepper(key)(*this, steps);
+}
+
+// ---- checks and errors -------------------------------------------------------------------
+
+void Simulation::check_initial_overlaps() const {
+  const double tol = opt_.initial_overlap;
+  for (std::size_t i = 0; i < n_; ++i) {
+    for (Index e = pair_offset_[i]; e < pair_offset_[i + 1]; ++e) {
+      const Index j = pair_partner_[e];
+      const double d = (vec3(x_.data(), i) - vec3(x_.data(), j)).norm();
+      const double ov = radius_[i] + radius_[j] - d;
+      if (ov > tol * std::min(radius_[i], radius_[j]))
+        throw InvalidArgument("initial overlap: spheres " + std::to_string(id_[i]) + " and " +
+                              std::to_string(id_[j]) + " overlap by " + fmt(ov) + " m (" +
+                              fmt(ov / std::min(radius_[i], radius_[j])) +
+                              " of the smaller radius; tolerance " + fmt(tol) + ")");
+    }
+    for (Index e = wall_offset_[i]; e < wall_offset_[i + 1]; ++e) {
+      const Plane& p = planes_[wall_index_[e]];
+      const double ov = radius_[i] - p.normal.dot(vec3(x_.data(), i) - p.point);
+      if (ov > tol * radius_[i])
+        throw InvalidArgument("initial overlap: sphere " + std::to_string(id_[i]) + " overlaps wall " +
+                              std::to_string(wall_index_[e]) + " by " + fmt(ov) + " m (" +
+                              fmt(ov / radius_[i]) + " of its radius; tolerance " + fmt(tol) + ")");
+    }
+  }
+}
+
+void Simulation::report_overlap(double dt) const {
+  // Error path only: find the worst offender serially (lowest id wins ties).
+  double worst = -1;
+  std::string what;
+  Id who = -1;
+  for (std::size_t i = 0; i < n_; ++i) {
+    for (Index e = pair_offset_[i]; e < pair_offset_[i + 1]; ++e) {
+      const Index j = pair_partner_[e];
+      const double frac = pair_overlap_[e] / std::min(radius_[i], radius_[j]);
+      if (frac > worst || std::isnan(frac)) {
+        worst = frac;
+        who = id_[i];
+        what = "spheres " + std::to_string(id_[i]) + " and " + std::to_string(id_[j]);
+      }
+    }
+    for (Index e = wall_offset_[i]; e < wall_offset_[i + 1]; ++e) {
+      const double frac = wall_overlap_[e] / radius_[i];
+      if (frac > worst || std::isnan(frac)) {
+        worst = frac;
+        who = id_[i];
+        what = "sphere " + std::to_string(id_[i]) + " and wall " + std::to_string(wall_index_[e]);
+      }
+    }
+  }
+  throw InstabilityError(
+      "unstable at step " + std::to_string(step_ + 1) + " (t = " + fmt(time_ + dt) + " s): " +
+          what + " overlap by " + fmt(worst) + " of the smaller radius (limit " +
+          fmt(opt_.max_overlap) +
+          "); the time step is too large for the stiffness, or a particle moved too fast. "
+          "The state before this step is kept.",
+      step_ + 1, who);
+}
+
+void Simulation::report_nonfinite() const {
+  for (std::size_t k = 0; k < n_; ++k) {
+    if (!finite3(f_.data() + 3 * k) || !finite3(t_.data() + 3 * k))
+      throw InstabilityError("unstable at step " + std::to_string(step_ + 1) +
+                                 ": non-finite force or torque on sphere " +
+                                 std::to_string(id_[k]) + ". The state before this step is kept.",
+                             step_ + 1, id_[k]);
+  }
+  throw InstabilityError("unstable: non-finite force", step_ + 1, -1);
+}
+
+// ---- state access ----------------------------------------------------------------------------
+
+void Simulation::gather_by_id(const double* src, double* out) const {
+  for (std::size_t k = 0; k < n_; ++k) {
+    const Id id = id_[k];
+    for (int c = 0; c < 3; ++c) out[3 * id + c] = src[3 * k + c];
+  }
+}
+
+void Simulation::scatter_by_id(const double* in, double* dst) {
+  for (std::size_t k = 0; k < n_; ++k) {
+    const Id id = id_[k];
+    require(finite3(in + 3 * id), "value for sphere " + std::to_string(id) + " is not finite");
+  }
+  for (std::size_t k = 0; k < n_; ++k) {
+    const Id id = id_[k];
+    for (int c = 0; c < 3; ++c) dst[3 * k + c] = in[3 * id + c];
+  }
+}
+
+void Simulation::set_positions(const double* in) {
+  scatter_by_id(in, x_.data());
+  list_valid_ = false;
+}
+
+void Simulation::get_forces(double* out) const {
+  for (std::size_t k = 0; k < n_; ++k)
+    for (int c = 0; c < 3; ++c) out[3 * id_[k] + c] = f_[3 * k + c] + mass_[k] * opt_.gravity[c];
+}
+
+void Simulation::get_radii(double* out) const {
+  for (std::size_t k = 0; k < n_; ++k) out[id_[k]] = radius_[k];
+}
+
+void Simulation::get_masses(double* out) const {
+  for (std::size_t k = 0; k < n_; ++k) out[id_[k]] = mass_[k];
+}
+
+void Simulation::get_materials(int* out) const {
+  for (std::size_t k = 0; k < n_; ++k) out[id_[k]] = material_[k];
+}
+
+Energy Simulation::energy() const {
+  Energy e;
+  // Serial sums in id order: the same digits whatever the thread count.
+  for (Id id = 0; id < static_cast<Id>(n_); ++id) {
+    const Index k = index_of_[id];
+    const double m = mass_[k];
+    e.translational += 0.5 * m * vec3(v_.data(), k).squaredNorm();
+    e.rotational += 0.5 / inv_inertia_[k] * vec3(w_.data(), k).squaredNorm();
+    e.gravitational -= m * opt_.gravity.dot(vec3(x_.data(), k));
+    e.dissipated += dissipated_[k];
+  }
+  if (!ran_) return e;
+  for (const ContactInfo& c : contacts()) {
+    const int mi = material_[index_of_[c.i]];
+    const int mj = c.wall >= 0 ? planes_[c.wall].material : material_[index_of_[c.j]];
+    const PairParams& p = pairs_(mi, mj);
+    e.elastic += 0.5 * p.kn * c.overlap * c.overlap;
+    e.elastic += 0.5 * p.kt * c.tangential_displacement.squaredNorm();
+  }
+  return e;
+}
+
+std::vector<ContactInfo> Simulation::contacts() const {
+  std::vector<ContactInfo> out;
+  if (pair_offset_.size() != n_ + 1) return out;
+  auto torque = [](const std::vector<double>& nxft, const std::vector<double>& roll, double r,
+                   double overlap, std::size_t e) {
+    Vec3 t = Vec3::Zero();
+    if (!nxft.empty()) t -= (r - 0.5 * overlap) * vec3(nxft.data(), e);
+    if (!roll.empty()) t += r * vec3(roll.data(), e);
+    return t;
+  };
+  auto history = [](const std::vector<double>& xi, std::size_t e) {
+    return xi.empty() ? Vec3(Vec3::Zero()) : Vec3(vec3(xi.data(), e));
+  };
+  for (std::size_t i = 0; i < n_; ++i) {
+    for (Index e = pair_offset_[i]; e < pair_offset_[i + 1]; ++e) {
+      if (!(pair_overlap_[e] > 0)) continue;
+      out.push_back({id_[i], id_[pair_partner_[e]], -1, pair_overlap_[e],
+                     vec3(pair_force_.data(), e),
+                     torque(pair_nxft_, pair_roll_, radius_[i], pair_overlap_[e], e),
+                     history(pair_xi_, e)});
+    }
+    for (Index e = wall_offset_[i]; e < wall_offset_[i + 1]; ++e) {
+      if (!(wall_overlap_[e] > 0)) continue;
+      out.push_back({id_[i], -1, wall_index_[e], wall_overlap_[e], vec3(wall_force_.data(), e),
+                     torque(wall_nxft_, wall_roll_, radius_[i], wall_overlap_[e], e),
+                     history(wall_xi_, e)});
+    }
+  }
+  std::sort(out.begin(), out.end(), [](const ContactInfo& a, const ContactInfo& b) {
+    return a.i != b.i ? a.i < b.i : (a.wall != b.wall ? a.wall < b.wall : a.j < b.j);
+  });
+  return out;
+}
+
+}  // namespace tsubu

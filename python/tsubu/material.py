@@ -1,0 +1,71 @@
+"""Materials: the contact parameters of spheres and walls."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+from . import _checks
+
+
+@dataclass(frozen=True, eq=False)
+class Material:
+    """Contact and bulk parameters of one material (SI units).
+
+    Every sphere and wall has a material. The parameters of a contact between two materials are
+    mixed once, when a run starts (see ``Simulation.set_pair`` to override a pair):
+
+    * ``kn``, ``kt``: harmonic mean ``2 a b / (a + b)`` (two half-springs in series; equal
+      materials keep their own value);
+    * ``restitution``, ``friction``, ``rolling_friction``, ``tangential_damping``: geometric mean.
+
+    Parameters
+    ----------
+    density : float
+        Mass density [kg/m^3], > 0. Unused for walls.
+    kn : float
+        Normal spring stiffness [N/m], > 0 (linear Kelvin-Voigt law, eq. 1.6).
+    kt : float or None
+        Tangential spring stiffness [N/m], >= 0. Default ``2/7 kn``, which gives the tangential
+        oscillation of a rolling sphere the frequency of the normal one.
+    restitution : float
+        Normal coefficient of restitution e in (0, 1]. The normal dashpot is
+        ``eta_n = -2 ln(e) sqrt(m_eff kn / (pi^2 + ln^2 e))`` (eq. B.9) with the reduced mass
+        ``m_eff = m_i m_j / (m_i + m_j)`` of the pair (walls: ``m_i``), so every contact
+        rebounds with e. The normal force is not clipped at zero (B.9 assumes it).
+    friction : float
+        Coulomb friction coefficient mu >= 0 (eqs. 1.17-1.18). 0 makes contacts frictionless:
+        the run then uses a specialisation with no tangential code or history.
+    rolling_friction : float
+        Rolling friction coefficient mu_r >= 0 (eq. 1.20), dimensionless.
+    tangential_damping : float
+        Tangential dashpot as a fraction of the normal one, ``eta_t = tangential_damping *
+        eta_n`` (eq. 1.11), >= 0. Default 0, as in the shared reference scene and LAMMPS's
+        ``gran/hooke/history`` with ``gamma_t = 0`` (LAMMPS's NULL default is 0.5).
+    name : str, optional
+        A label for printing.
+    """
+
+    density: float = 2500.0
+    kn: float = 1.0e3
+    kt: float | None = None
+    restitution: float = 0.5
+    friction: float = 0.5
+    rolling_friction: float = 0.0
+    tangential_damping: float = 0.0
+    name: str | None = field(default=None)
+
+    def __post_init__(self) -> None:
+        set_ = object.__setattr__
+        set_(self, "density", _checks.positive("density", self.density))
+        set_(self, "kn", _checks.positive("kn", self.kn))
+        kt = 2.0 / 7.0 * self.kn if self.kt is None else _checks.positive("kt", self.kt, allow_zero=True)
+        set_(self, "kt", kt)
+        set_(self, "restitution",
+             _checks.in_range("restitution", self.restitution, 0.0, 1.0, lo_open=True, hi_open=False))
+        set_(self, "friction", _checks.positive("friction", self.friction, allow_zero=True))
+        set_(self, "rolling_friction",
+             _checks.positive("rolling_friction", self.rolling_friction, allow_zero=True))
+        set_(self, "tangential_damping",
+             _checks.positive("tangential_damping", self.tangential_damping, allow_zero=True))
+        if self.name is not None and not isinstance(self.name, str):
+            raise TypeError(f"name must be a string, got {self.name!r}")

@@ -1,0 +1,411 @@
+"""The Simulation: spheres, plane walls and the time loop (SI units throughout)."""
+
+from __future__ import annotations
+
+import math
+import sys
+import time as _time
+
+import numpy as np
+
+from . import _checks, _core
+from .material import Material
+
+
+class InstabilityError(RuntimeError):
+    """A run went unstable: a non-finite force, or an overlap beyond ``max_overlap`` of a radius.
+
+    ``step`` is the step that failed and ``particle`` the id of the sphere it names. The state of
+    the step before (positions, velocities, angular velocities) stays readable.
+    """
+
+    def __init__(self, message: str, step: int, particle: int):
+        super().__init__(message)
+        self.step = step
+        self.particle = particle
+
+
+class Simulation:
+    """Rigid spheres with Kelvin-Voigt contacts, plane walls and gravity.
+
+    Parameters
+    ----------
+    gravity : (3,) floats
+        Gravitational acceleration [m/s^2]. Default ``(0, 0, -9.81)``.
+    dt : float or None
+        Time step [s]. None: ``default_time_step()`` = t_c / 50, with t_c = pi/alpha (B.3, B.5)
+        the shortest contact duration of the scene, evaluated when a run starts. A dt above
+        ``critical_time_step()`` (2.31) is refused unless ``allow_unstable_dt`` is True.
+    threads : int or None
+        OpenMP threads. None: OpenMP's default (all cores). Results are bit-identical for any
+        count.
+    seed : int
+        Seed of stochastic models (reserved: the present contact laws are deterministic).
+    skin : float or None
+        Neighbour-list skin [m]. None: 0.2 x the mean diameter. The list is rebuilt when a
+        particle has moved more than skin/2 (or a moving wall could reach a new particle).
+    tangential_history : {"rotate", "literal"}
+        How the stored tangential displacement follows the contact. "rotate" (default): kept as
+        a vector, rotated into the current tangent plane each step with its length preserved,
+        then incremented by v_t dt (as LAMMPS, LIGGGHTS). "literal": the notes' eq. (1.14),
+        which re-aims the whole accumulated length along the current v_t; offered for
+        comparison (docs/physics.md).
+    max_overlap : float
+        A run stops with InstabilityError when an overlap exceeds this fraction of the smaller
+        radius. Default 0.5.
+    initial_overlap : float
+        The first run refuses initial overlaps larger than this fraction of the smaller radius.
+        Default 0.05.
+    allow_unstable_dt : bool
+        Run even if dt exceeds the stability bound (the instability check still applies).
+    rebuild_every_step : bool
+        Rebuild the neighbour list every step (a testing aid; results are identical).
+    """
+
+    def __init__(self, gravity=(0.0, 0.0, -9.81), dt=None, threads=None, seed: int = 0,
+                 skin=None, tangential_history: str = "rotate", max_overlap: float = 0.5,
+                 initial_overlap: float = 0.05, allow_unstable_dt: bool = False,
+                 rebuild_every_step: bool = False):
+        self._core = _core.Simulation()
+        self._materials: list[Material] = []
+        self._material_index: dict[int, int] = {}
+        self.gravity = gravity
+        self.dt = dt
+        self.threads = threads
+        self.seed = _checks.whole("seed", seed)
+        if skin is not None:
+            self._core.skin_option = _checks.positive("skin", skin)
+        if tangential_history not in ("rotate", "literal"):
+            raise ValueError(f"tangential_history must be 'rotate' or 'literal', got {tangential_history!r}")
+        self._core.history_rule = tangential_history
+        self._core.max_overlap = _checks.positive("max_overlap", max_overlap)
+        self._core.initial_overlap = _checks.positive("initial_overlap", initial_overlap, allow_zero=True)
+        if not isinstance(allow_unstable_dt, bool):
+            raise TypeError(f"allow_unstable_dt must be a bool, got {allow_unstable_dt!r}")
+        self._core.allow_unstable_dt = allow_unstable_dt
+        if not isinstance(rebuild_every_step, bool):
+            raise TypeError(f"rebuild_every_step must be a bool, got {rebuild_every_step!r}")
+        self._core.rebuild_every_step = rebuild_every_step
+
+    # ---- options ---------------------------------------------------------------------------
+    @property
+    def gravity(self) -> np.ndarray:
+        """Gravitational acceleration [m/s^2], shape (3,)."""
+        return np.array(self._core.gravity)
+
+    @gravity.setter
+    def gravity(self, value) -> None:
+        self._core.gravity = _checks.vec3("gravity", value)
+
+    @property
+    def dt(self) -> float:
+        """The time step [s] the next run uses (the default t_c/50 unless one was set)."""
+        return self._core.time_step()
+
+    @dt.setter
+    def dt(self, value) -> None:
+        self._core.dt = 0.0 if value is None else _checks.positive("dt", value)
+
+    @property
+    def threads(self) -> int:
+        """OpenMP threads used by runs (0: OpenMP's default)."""
+        return self._core.threads
+
+    @threads.setter
+    def threads(self, value) -> None:
+        self._core.threads = 0 if value is None else _checks.whole("threads", value, minimum=1)
+
+    @property
+    def skin(self) -> float:
+        """Neighbour-list skin [m]."""
+        return self._core.skin()
+
+    @property
+    def law(self) -> str:
+        """Name of the compiled contact-law specialisation the next run uses."""
+        return self._core.law_name()
+
+    # ---- materials ---------------------------------------------------------------------------
+    def _material(self, material, name: str = "material") -> int:
+        if not isinstance(material, Material):
+            raise TypeError(f"{name} must be a tsubu.Material, got {material!r}")
+        key = id(material)
+        if key not in self._material_index:
+            m = material
+            self._material_index[key] = self._core.add_material(
+                m.density, m.kn, m.kt, m.restitution, m.friction, m.rolling_friction,
+                m.tangential_damping)
+            self._materials.append(material)  # keeps id(material) valid
+        return self._material_index[key]
+
+    def set_pair(self, material_a: Material, material_b: Material, **overrides) -> None:
+        """Override the mixed contact parameters between two materials (either order).
+
+        Keywords: ``kn``, ``kt``, ``restitution``, ``friction``, ``rolling_friction``,
+        ``tangential_damping``, with the meaning and units of :class:`Material`; those not
+        given keep their mixed value.
+        """
+        a = self._material(material_a, "material_a")
+        b = self._material(material_b, "material_b")
+        p = self._core.pair_parameters(a, b)
+        for key, value in overrides.items():
+            if key not in p:
+                raise TypeError(f"set_pair got an unknown parameter {key!r}; expected one of {sorted(p)}")
+            if key == "restitution":
+                p[key] = _checks.in_range(key, value, 0.0, 1.0, lo_open=True, hi_open=False)
+            else:
+                p[key] = _checks.positive(key, value, allow_zero=key != "kn")
+        self._core.set_pair_parameters(a, b, p["kn"], p["kt"], p["restitution"], p["friction"],
+                                       p["rolling_friction"], p["tangential_damping"])
+
+    def pair_parameters(self, material_a: Material, material_b: Material) -> dict:
+        """The contact parameters used between two materials (mixed, or as overridden)."""
+        return self._core.pair_parameters(self._material(material_a, "material_a"),
+                                          self._material(material_b, "material_b"))
+
+    # ---- scene -------------------------------------------------------------------------------
+    def add_spheres(self, positions, radius, material: Material, velocities=None,
+                    angular_velocities=None) -> np.ndarray:
+        """Add N spheres; returns their ids (consecutive integers, in the order given).
+
+        positions : (N, 3) [m]; radius : float or (N,) [m], > 0; material : Material;
+        velocities : (N, 3) [m/s] or None (zero); angular_velocities : (N, 3) [rad/s] or None.
+        Mass is density 4/3 pi r^3 and the moment of inertia 2/5 m r^2 (1.3).
+        """
+        x = _checks.points("positions", positions)
+        n = x.shape[0]
+        r = _checks.radii("radius", radius, n)
+        mat = self._material(material)
+        v = None if velocities is None else _checks.points("velocities", velocities, n)
+        w = None if angular_velocities is None else _checks.points("angular_velocities", angular_velocities, n)
+        first = self._core.add_spheres(x, r, np.full(n, mat, dtype=np.intc), v, w)
+        return np.arange(first, first + n, dtype=np.int64)
+
+    def add_sphere(self, position, radius: float, material: Material, velocity=None,
+                   angular_velocity=None) -> int:
+        """Add one sphere; returns its id. Arguments as :meth:`add_spheres` for one sphere."""
+        ids = self.add_spheres(
+            [_checks.vec3("position", position)], _checks.positive("radius", radius), material,
+            None if velocity is None else [_checks.vec3("velocity", velocity)],
+            None if angular_velocity is None else [_checks.vec3("angular_velocity", angular_velocity)])
+        return int(ids[0])
+
+    def add_plane(self, point=None, normal=None, material: Material | None = None,
+                  velocity=(0.0, 0.0, 0.0), angular_velocity=(0.0, 0.0, 0.0),
+                  coefficients=None) -> int:
+        """Add an infinite plane wall; returns its index.
+
+        Give either ``point`` [m] and ``normal``, or ``coefficients`` = (a, b, c, d) of
+        a x + b y + c z + d = 0 (3.2). The normal (or (a, b, c)) points to the side where
+        spheres live: a plane is a half-space, and a sphere whose centre crosses it is an
+        instability. The wall translates with ``velocity`` [m/s] and rotates with
+        ``angular_velocity`` [rad/s] about ``point``; its velocity at the contact point enters
+        the relative velocity. Wall contacts use the particle's mass as m_eff.
+        """
+        if material is None:
+            raise TypeError("add_plane needs a material")
+        if coefficients is not None:
+            if point is not None or normal is not None:
+                raise ValueError("give either coefficients or point and normal, not both")
+            try:
+                c = np.asarray(coefficients, dtype=float)
+            except (TypeError, ValueError):
+                raise TypeError(f"coefficients must be 4 numbers (a, b, c, d), got {coefficients!r}") from None
+            if c.shape != (4,) or not np.all(np.isfinite(c)):
+                raise ValueError(f"coefficients must be 4 finite numbers (a, b, c, d), got {coefficients!r}")
+            nrm2 = float(c[:3] @ c[:3])
+            if nrm2 == 0:
+                raise ValueError(f"coefficients (a, b, c) must not all be zero, got {coefficients!r}")
+            normal = c[:3]
+            point = -c[3] * c[:3] / nrm2
+        if point is None:
+            point = (0.0, 0.0, 0.0)
+        if normal is None:
+            normal = (0.0, 0.0, 1.0)
+        p = _checks.vec3("point", point)
+        nrm = _checks.vec3("normal", normal)
+        if math.hypot(*nrm) == 0:
+            raise ValueError(f"normal must not be zero, got {normal!r}")
+        return self._core.add_plane(p, nrm, self._material(material), _checks.vec3("velocity", velocity),
+                                    _checks.vec3("angular_velocity", angular_velocity))
+
+    def set_plane_motion(self, wall: int, velocity=None, angular_velocity=None) -> None:
+        """Change a wall's velocity [m/s] and/or angular velocity [rad/s]."""
+        state = self.plane(wall)
+        v = state["velocity"] if velocity is None else _checks.vec3("velocity", velocity)
+        w = state["angular_velocity"] if angular_velocity is None else _checks.vec3("angular_velocity", angular_velocity)
+        self._core.set_plane_motion(wall, v, w)
+
+    def plane(self, wall: int) -> dict:
+        """A wall's current point, unit normal, velocity and angular velocity."""
+        wall = _checks.whole("wall", wall)
+        if wall >= self._core.plane_count:
+            raise ValueError(f"wall must be < {self._core.plane_count}, got {wall}")
+        d = self._core.plane(wall)
+        return {k: (np.array(v) if k != "material" else self._materials_by_index(v)) for k, v in d.items()}
+
+    def _materials_by_index(self, index: int) -> Material:
+        for m in self._materials:
+            if self._material_index[id(m)] == index:
+                return m
+        raise KeyError(index)
+
+    # ---- time stepping -----------------------------------------------------------------------
+    def critical_time_step(self) -> float:
+        """The stability bound min(2 sqrt(m/k), 2 m/eta) of (2.31) for this scene [s].
+
+        Taken over every kind of contact the scene can have, with the reduced mass of the two
+        lightest spheres of each pair of materials (walls: the lightest sphere) and
+        k = max(kn, 3.5 kt) (a rolling sphere's tangential spring acts on m/3.5). Dense packs
+        with many contacts per sphere are stable only below a fraction of it.
+        """
+        return self._core.critical_time_step()
+
+    def contact_duration(self) -> float:
+        """The shortest contact duration t_c = pi/alpha (B.3, B.5) of the scene [s]."""
+        return self._core.contact_duration()
+
+    def default_time_step(self) -> float:
+        """t_c / 50: the time step used when none is set [s]."""
+        return self._core.default_time_step()
+
+    def run(self, steps: int | None = None, time: float | None = None, progress: bool = False) -> "Simulation":
+        """Advance by ``steps`` steps or by ``time`` seconds (rounded to whole steps).
+
+        Releases the GIL. Raises InstabilityError if the run goes unstable (the last good state
+        stays readable) and ValueError for a dt above the stability bound or initial overlaps.
+        ``progress=True`` prints progress to stderr.
+        """
+        if (steps is None) == (time is None):
+            raise TypeError("run needs exactly one of steps= or time=")
+        if time is not None:
+            t = _checks.positive("time", time, allow_zero=True)
+            steps = int(round(t / self.dt))
+        steps = _checks.whole("steps", steps)
+        if not progress:
+            self._advance(steps)
+            return self
+        chunk = max(1, steps // 50)
+        start = _time.perf_counter()
+        done = 0
+        while done < steps:
+            k = min(chunk, steps - done)
+            self._advance(k)
+            done += k
+            rate = self.size * done / max(_time.perf_counter() - start, 1e-9)
+            print(f"\r[tsubu] step {done}/{steps}  t = {self.time:.6g} s  "
+                  f"{rate / 1e6:.2f} M particle-steps/s", end="", file=sys.stderr, flush=True)
+        print(file=sys.stderr)
+        return self
+
+    def _advance(self, steps: int) -> None:
+        try:
+            self._core.run(steps)
+        except _core.InstabilityError as e:
+            message, step, particle = e.args
+            raise InstabilityError(message, step, particle) from None
+
+    @property
+    def time(self) -> float:
+        """Simulated time [s]."""
+        return self._core.time
+
+    @property
+    def step_count(self) -> int:
+        """Steps taken so far."""
+        return self._core.step_count
+
+    # ---- state (copies, in id order) ---------------------------------------------------------
+    @property
+    def size(self) -> int:
+        """Number of spheres."""
+        return self._core.size
+
+    def __len__(self) -> int:
+        return self._core.size
+
+    @property
+    def positions(self) -> np.ndarray:
+        """Centre positions [m], shape (N, 3), row = id. Assigning moves the spheres."""
+        return self._core.positions()
+
+    @positions.setter
+    def positions(self, value) -> None:
+        self._core.set_positions(_checks.points("positions", value, self.size))
+
+    @property
+    def velocities(self) -> np.ndarray:
+        """Velocities [m/s], shape (N, 3). Assignable."""
+        return self._core.velocities()
+
+    @velocities.setter
+    def velocities(self, value) -> None:
+        self._core.set_velocities(_checks.points("velocities", value, self.size))
+
+    @property
+    def angular_velocities(self) -> np.ndarray:
+        """Angular velocities [rad/s], shape (N, 3). Assignable."""
+        return self._core.angular_velocities()
+
+    @angular_velocities.setter
+    def angular_velocities(self, value) -> None:
+        self._core.set_angular_velocities(_checks.points("angular_velocities", value, self.size))
+
+    @property
+    def radii(self) -> np.ndarray:
+        """Radii [m], shape (N,)."""
+        return self._core.radii()
+
+    @property
+    def masses(self) -> np.ndarray:
+        """Masses [kg], shape (N,)."""
+        return self._core.masses()
+
+    @property
+    def forces(self) -> np.ndarray:
+        """Total force of the last step (contacts + gravity) [N], shape (N, 3)."""
+        return self._core.forces()
+
+    @property
+    def torques(self) -> np.ndarray:
+        """Total torque of the last step [N m], shape (N, 3)."""
+        return self._core.torques()
+
+    def contacts(self) -> dict:
+        """The contacts of the last force evaluation (the start of the last step).
+
+        A dict of arrays, one row per touching contact, sorted by ``i``:
+        ``i`` sphere id; ``j`` partner id (-1 for a wall); ``wall`` wall index (-1 for a pair);
+        ``overlap`` [m]; ``force`` on i [N], shape (M, 3) (the partner gets -force);
+        ``torque_i`` torque on i from this contact [N m]; ``tangential_displacement`` the stored
+        history [m] (zero without friction).
+        """
+        return self._core.contacts()
+
+    def energy(self) -> dict:
+        """Energies [J]: ``translational``, ``rotational``, ``kinetic`` (their sum),
+        ``gravitational`` (-sum m g.x), ``elastic`` (springs of the last force evaluation:
+        1/2 kn overlap^2 + 1/2 kt |history|^2), ``total`` (kinetic + gravitational + elastic) and
+        ``dissipated`` (work of dashpots, slip and rolling friction since the start). With fixed
+        walls, ``total + dissipated`` is conserved up to time-discretisation error.
+        """
+        return self._core.energy()
+
+    # ---- neighbour list ----------------------------------------------------------------------
+    def rebuild_neighbors(self) -> None:
+        """Rebuild the neighbour list now (runs do this by themselves)."""
+        self._core.rebuild_neighbors()
+
+    def neighbor_pairs(self) -> np.ndarray:
+        """Pairs (lower id first) of the current neighbour list: every pair of spheres closer
+        than r_i + r_j + skin at the last rebuild; shape (M, 2)."""
+        return self._core.neighbor_pairs()
+
+    @property
+    def rebuild_count(self) -> int:
+        """Neighbour-list rebuilds so far."""
+        return self._core.rebuild_count
+
+    def __repr__(self) -> str:
+        return (f"tsubu.Simulation({self.size} spheres, {self._core.plane_count} walls, "
+                f"t = {self.time:.6g} s, step {self.step_count})")
