@@ -264,10 +264,8 @@ void Simulation::size_entry_buffers() {
   const std::size_t m = pair_partner_.size(), k = wall_index_.size();
   pair_overlap_.resize(m, 0.0);
   pair_force_.resize(3 * m, 0.0);
-  pair_power_.resize(m, 0.0);
   wall_overlap_.resize(k, 0.0);
   wall_force_.resize(3 * k, 0.0);
-  wall_power_.resize(k, 0.0);
   const std::size_t mt = has_history_ ? m : 0, kt = has_history_ ? k : 0;
   pair_xi_.resize(3 * mt, 0.0);
   pair_nxft_.resize(3 * mt, 0.0);

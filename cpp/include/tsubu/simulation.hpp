@@ -168,8 +168,8 @@ class Simulation {
   std::vector<Index> pair_offset_, pair_partner_, pair_owner_, rev_offset_, rev_entry_;
   std::vector<Index> wall_offset_, wall_index_;
   // Per-entry history (tangential displacement) and results of the last evaluation.
-  std::vector<double> pair_xi_, pair_force_, pair_nxft_, pair_roll_, pair_overlap_, pair_power_;
-  std::vector<double> wall_xi_, wall_force_, wall_nxft_, wall_roll_, wall_overlap_, wall_power_;
+  std::vector<double> pair_xi_, pair_force_, pair_nxft_, pair_roll_, pair_overlap_;
+  std::vector<double> wall_xi_, wall_force_, wall_nxft_, wall_roll_, wall_overlap_;
   // Neighbour-list bookkeeping.
   bool list_valid_ = false;
   double list_skin_ = 0;

@@ -49,6 +49,14 @@ struct Stepper {
     (void)xi;
   }
 
+  // A contact that opens loses the energy still stored in its tangential spring.
+  static void release(const PairParams& p, double* xi, double& dissipated) {
+    const double u2 = xi[0] * xi[0] + xi[1] * xi[1] + xi[2] * xi[2];
+    if (u2 == 0) return;
+    dissipated += 0.5 * p.kt * u2;
+    std::fill(xi, xi + 3, 0.0);
+  }
+
   static void pair_pass(Simulation& s, double dt, double& worst_out) {
     const Index n = static_cast<Index>(s.n_);
     const double *x = s.x_.data(), *v = s.v_.data(), *w = s.w_.data();
@@ -57,7 +65,7 @@ struct Stepper {
     const Index *off = s.pair_offset_.data(), *partner = s.pair_partner_.data();
     double *xi = s.pair_xi_.data(), *force = s.pair_force_.data(), *nxft = s.pair_nxft_.data();
     double *roll = s.pair_roll_.data(), *overlap = s.pair_overlap_.data();
-    double* power = s.pair_power_.data();
+    double* diss = s.dissipated_.data();
     const PairTable& table = s.pairs_;
     double worst = 0;
 #pragma omp parallel for schedule(static) num_threads(s.threads()) reduction(max : worst)
@@ -71,7 +79,7 @@ struct Stepper {
         const double dist2 = d.squaredNorm();
         if (dist2 >= rs * rs) {  // (1.10): no contact; the history ends with it
           overlap[e] = 0;
-          if constexpr (kHistory) std::fill(xi + 3 * e, xi + 3 * e + 3, 0.0);
+          if constexpr (kHistory) release(table(mat[i], mat[j]), xi + 3 * e, diss[i]);
           continue;
         }
         ContactGeometry g;
@@ -106,7 +114,7 @@ struct Stepper {
           vec3(roll, e) = res.roll;
           res.power -= res.roll.dot(ri * vec3(w, i) - r[j] * vec3(w, j));
         }
-        power[e] = res.power;
+        diss[i] += res.power * dt;  // the owner books the pair's dissipation
       }
     }
     worst_out = std::max(worst_out, worst);
@@ -121,7 +129,7 @@ struct Stepper {
     const Index *off = s.wall_offset_.data(), *wall = s.wall_index_.data();
     double *xi = s.wall_xi_.data(), *force = s.wall_force_.data(), *nxft = s.wall_nxft_.data();
     double *roll = s.wall_roll_.data(), *overlap = s.wall_overlap_.data();
-    double* power = s.wall_power_.data();
+    double* diss = s.dissipated_.data();
     const Plane* planes = s.planes_.data();
     const PairTable& table = s.pairs_;
     double worst = 0;
@@ -134,7 +142,7 @@ struct Stepper {
         const double delta = ri - P.normal.dot(xi_pos - P.point);  // (3.1), signed: a half-space
         if (delta <= 0) {
           overlap[e] = 0;
-          if constexpr (kHistory) std::fill(xi + 3 * e, xi + 3 * e + 3, 0.0);
+          if constexpr (kHistory) release(table(mat[i], P.material), xi + 3 * e, diss[i]);
           continue;
         }
         ContactGeometry g;
@@ -170,7 +178,7 @@ struct Stepper {
           vec3(roll, e) = res.roll;
           res.power -= ri * res.roll.dot(g.w_rel);
         }
-        power[e] = res.power;
+        diss[i] += res.power * dt;
       }
     }
     worst_out = std::max(worst_out, worst);
@@ -184,17 +192,16 @@ struct Stepper {
     const Index *off = s.pair_offset_.data(), *roff = s.rev_offset_.data();
     const Index *rent = s.rev_entry_.data(), *woff = s.wall_offset_.data();
     const double *pf = s.pair_force_.data(), *pt = s.pair_nxft_.data(), *pr = s.pair_roll_.data();
-    const double *po = s.pair_overlap_.data(), *pp = s.pair_power_.data();
+    const double* po = s.pair_overlap_.data();
     const double *wf = s.wall_force_.data(), *wt = s.wall_nxft_.data(), *wr = s.wall_roll_.data();
-    const double *wo = s.wall_overlap_.data(), *wp = s.wall_power_.data();
-    double *f = s.f_.data(), *t = s.t_.data(), *diss = s.dissipated_.data();
+    const double* wo = s.wall_overlap_.data();
+    double *f = s.f_.data(), *t = s.t_.data();
     const bool walls = !s.planes_.empty();
     int bad = 0;
 #pragma omp parallel for schedule(static) num_threads(s.threads()) reduction(max : bad)
     for (Index k = 0; k < n; ++k) {
       const double rk = r[k];
       Vec3 F = Vec3::Zero(), T = Vec3::Zero();
-      double P = 0;
       for (Index q = roff[k]; q < roff[k + 1]; ++q) {  // k is the partner: reaction
         const Index e = rent[q];
         if (!(po[e] > 0)) continue;
@@ -207,7 +214,6 @@ struct Stepper {
         F += vec3(pf, e);
         if constexpr (kTangential) T -= (rk - 0.5 * po[e]) * vec3(pt, e);
         if constexpr (kRolling) T += rk * vec3(pr, e);
-        P += pp[e];
       }
       if (walls) {
         for (Index e = woff[k]; e < woff[k + 1]; ++e) {
@@ -215,12 +221,10 @@ struct Stepper {
           F += vec3(wf, e);
           if constexpr (kTangential) T -= (rk - 0.5 * wo[e]) * vec3(wt, e);
           if constexpr (kRolling) T += rk * vec3(wr, e);
-          P += wp[e];
         }
       }
       vec3(f, k) = F;
       if constexpr (kTorque) vec3(t, k) = T;
-      diss[k] += P * dt;
       if (!F.allFinite() || !T.allFinite()) bad = 1;
     }
     return bad != 0;
