@@ -38,6 +38,7 @@ def demo(args: argparse.Namespace) -> int:
     sim = lattice_drop(nx=args.nx, nz=args.nz, threads=args.threads)
     n = sim.size
     e0 = sim.energy()
+    z0 = sim.positions[:, 2].mean()
     print(f"tsubu {__version__} demo: {n} glass beads (d = 1 mm, e = 0.5, mu = 0.5) dropped "
           f"into a {args.nx * 1.1:.1f} mm square box")
     print(f"  contact law: {sim.law}; dt = {sim.dt:.4g} s = t_c/{sim.contact_duration() / sim.dt:.1f}; "
@@ -52,7 +53,7 @@ def demo(args: argparse.Namespace) -> int:
     walls = int(np.sum(c["wall"] >= 0))
     print(f"  simulated {sim.time * 1e3:.2f} ms in {sim.step_count} steps, {wall:.2f} s wall time "
           f"({n * sim.step_count / wall / 1e6:.1f} M particle-steps/s, {sim.threads or 'all'} threads)")
-    print(f"  mean height {z.mean() * 1e3:.3f} mm (started {np.mean(sim.positions[:, 2]) * 0 + (args.nz * 1.1 / 2) :.3f} mm), "
+    print(f"  mean height {z.mean() * 1e3:.3f} mm (started at {z0 * 1e3:.3f} mm), "
           f"lowest centre {z.min() * 1e3:.4f} mm")
     print(f"  contacts: {pairs} sphere-sphere, {walls} sphere-wall; max overlap "
           f"{(c['overlap'].max() / 1e-3 if len(c['overlap']) else 0):.2e} d")
