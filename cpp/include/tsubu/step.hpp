@@ -30,7 +30,7 @@ struct Stepper {
       pair_pass(s, dt, worst);
       wall_pass(s, dt, worst);
       if (!(worst <= s.opt_.max_overlap)) s.report_overlap(dt);
-      if (gather(s, dt)) s.report_nonfinite();
+      if (gather(s)) s.report_nonfinite();
       integrate(s, dt);
       if constexpr (MovingWalls) s.move_planes(dt);
       ++s.step_;
@@ -186,7 +186,7 @@ struct Stepper {
 
   // Sums each particle's contacts (lower-id partners, higher-id partners, then walls) into f, t.
   // Returns true if some sum is not finite.
-  static bool gather(Simulation& s, double dt) {
+  static bool gather(Simulation& s) {
     const Index n = static_cast<Index>(s.n_);
     const double* r = s.radius_.data();
     const Index *off = s.pair_offset_.data(), *roff = s.rev_offset_.data();
