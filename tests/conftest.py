@@ -54,9 +54,3 @@ def contact_time(e: float, m_eff: float, k: float = REF_KN) -> float:
 def ref_material() -> tsubu.Material:
     """The reference material with its default restitution 0.5 and friction 0.5."""
     return make_material()
-
-
-@pytest.fixture
-def ref_frictionless() -> tsubu.Material:
-    """The reference material without friction (restitution 0.5)."""
-    return make_material(friction=0.0)

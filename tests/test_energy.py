@@ -159,20 +159,22 @@ def damped_bounces(n_per_contact: int, steps: int) -> dict:
 def test_dissipated_energy_closes_the_balance():
     """e = 0.5, fixed wall: total + dissipated = E0 at contact-free instants, up to the
     first-order time-discretisation error of the explicit dashpot. At dt = t_c/50 the
-    imbalance is <= 3 % of the dissipated energy (measured ~1.6 %); a missing (0) or
+    imbalance is <= 3 % of the dissipated energy (measured 1.4 %); a missing (0) or
     double-counted dissipation would be off by 100 %. The imbalance is first order: halving dt
-    halves it (ratio in [1.6, 2.5]).
+    halves it (ratio in [1.6, 2.5]; measured 2.01).
 
     Closed form for the first bounce: the impact speed is u = sqrt(v0^2 + 2 g h) and the rebound
     speed e u (B.8), so the energy lost is 1/2 m u^2 (1 - e^2): dissipated after the first
-    bounce must match it within 3 %."""
+    bounce must match it within 4 % (measured +2.4 % at t_c/50, +1.2 % at t_c/100, the O(dt)
+    restitution error of test_restitution)."""
     imbalance = {}
     for n in (50, 100):
-        r = damped_bounces(n, 12 * n + 40 * n)  # 1st bounce + flight + 2nd bounce
+        r = damped_bounces(n, 130 * n)  # 1st bounce (~8 n), flight (~95 n), 2nd bounce
         free = r["free"]
         bal = (r["total"] + r["diss"] - r["e0"])[free]
         final_diss = r["diss"][free][-1]
-        assert final_diss > 0.5 * r["e0"]  # most of the energy has been dissipated (2 bounces)
+        # most of the energy above the resting state (z = R) is gone after two bounces (~95 %)
+        assert final_diss > 0.8 * (r["e0"] - r["m"] * G * R)
         imbalance[n] = np.max(np.abs(bal))
         assert imbalance[n] <= 0.03 * final_diss, (n, imbalance[n], final_diss)
         # first bounce: the first contact-free sample after the first contact
@@ -180,10 +182,10 @@ def test_dissipated_energy_closes_the_balance():
         first_end += int(np.argmax(~r["contact"][first_end:] & free[first_end:]))
         u = math.sqrt(0.1 ** 2 + 2 * G * 1e-4)
         lost = 0.5 * r["m"] * u ** 2 * (1 - 0.5 ** 2)
-        assert r["diss"][first_end] == pytest.approx(lost, rel=0.03)
-        # a second bounce happened within the run
+        assert r["diss"][first_end] == pytest.approx(lost, rel=0.04)
+        # a second bounce happened, and ended, within the run
         starts = np.flatnonzero(r["contact"][1:] & ~r["contact"][:-1])
-        assert len(starts) >= 1, "no second bounce"
+        assert len(starts) >= 2 and free[-1], "no complete second bounce"
     ratio = imbalance[50] / imbalance[100]
     assert 1.6 <= ratio <= 2.5, f"imbalance at t_c/50 {imbalance[50]:.3e}, t_c/100 {imbalance[100]:.3e}"
 

@@ -89,6 +89,18 @@ void Simulation::sort_by_cell(double h, const Vec3& lo, const std::array<long, 3
 
 void Simulation::rebuild(bool keep_history) {
   const std::size_t n = n_;
+  if (n == 0) {
+    pair_offset_.assign(1, 0);
+    rev_offset_.assign(1, 0);
+    wall_offset_.assign(1, 0);
+    pair_partner_.clear();
+    pair_owner_.clear();
+    rev_entry_.clear();
+    wall_index_.clear();
+    size_entry_buffers();
+    list_valid_ = true;
+    return;
+  }
   const double skin = this->skin();
   list_skin_ = skin;
 

@@ -91,9 +91,10 @@ class Simulation {
   const Options& options() const { return opt_; }
 
   // ---- time stepping -----------------------------------------------------------------------
-  // min over the scene's contact types of min(2 sqrt(m/k), 2 m/eta) (2.31), with the reduced
-  // mass of the lightest pair (walls: the lightest particle) and k = max(kn, 3.5 kt) (the
-  // tangential spring of a rolling sphere acts on m/3.5).
+  // The stability bound of symplectic Euler, (2.31) with spring and dashpot taken together:
+  // min over the scene's contact types of 4m / (eta + sqrt(eta^2 + 4 k m)), with the reduced
+  // mass of the lightest pair (walls: the lightest particle), for the normal spring and, with
+  // friction, the tangential spring (which acts on m/3.5 for a sphere that can roll).
   double critical_time_step() const;
   // Shortest contact duration t_c = pi/alpha (B.3, B.5) over the scene's contact types.
   double contact_duration() const;

@@ -225,7 +225,8 @@ struct Stepper {
       }
       vec3(f, k) = F;
       if constexpr (kTorque) vec3(t, k) = T;
-      if (!F.allFinite() || !T.allFinite()) bad = 1;
+      const double sum = F.sum() + T.sum();
+      if (!(sum - sum == 0)) bad = 1;  // inf or NaN somewhere (allFinite() is not inlined)
     }
     return bad != 0;
   }

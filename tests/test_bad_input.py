@@ -1,0 +1,289 @@
+"""Bad input raises ValueError/TypeError whose message names the argument and the bad value
+(DESIGN.md, "Bad input"), and leaves the simulation unchanged."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+import tsubu
+from conftest import REF_RADIUS, make_material
+
+R = REF_RADIUS
+NAN, INF = float("nan"), float("inf")
+
+
+@pytest.fixture
+def ref_sim():
+    """An empty simulation with a fixed dt (far below any bound of the reference material)."""
+    return tsubu.Simulation(gravity=(0.0, 0.0, -9.81), dt=1e-6, threads=1)
+
+
+# ---- Material --------------------------------------------------------------------------------
+
+@pytest.mark.parametrize("field, value, pattern", [
+    ("density", -2500.0, r"density.*-2500"),
+    ("density", 0.0, r"density.*0\.0"),
+    ("density", NAN, r"density.*nan"),
+    ("kn", -1000.0, r"kn.*-1000"),
+    ("kn", 0.0, r"kn.*0\.0"),
+    ("kn", INF, r"kn.*inf"),
+    ("kt", -1.0, r"kt.*-1"),
+    ("restitution", 0.0, r"restitution.*\(0, 1\].*0\.0"),
+    ("restitution", 1.5, r"restitution.*1\.5"),
+    ("restitution", -0.1, r"restitution.*-0\.1"),
+    ("restitution", NAN, r"restitution.*nan"),
+    ("friction", -0.5, r"friction.*-0\.5"),
+    ("rolling_friction", -0.1, r"rolling_friction.*-0\.1"),
+    ("tangential_damping", -1.0, r"tangential_damping.*-1"),
+])
+def test_material_rejects_bad_values(field, value, pattern):
+    with pytest.raises(ValueError, match=pattern):
+        make_material(**{field: value})
+
+
+@pytest.mark.parametrize("field, value", [
+    ("density", "2500"), ("kn", None), ("restitution", True), ("name", 3)])
+def test_material_rejects_non_numbers(field, value):
+    with pytest.raises(TypeError, match=field):
+        make_material(**{field: value})
+
+
+def test_material_boundaries_are_accepted():
+    """restitution = 1 (elastic) and friction = 0 are valid; kt defaults to 2/7 kn."""
+    m = make_material(restitution=1.0, friction=0.0, kt=None)
+    assert m.restitution == 1.0 and m.friction == 0.0
+    assert m.kt == pytest.approx(2.0 / 7.0 * m.kn, rel=1e-15)
+
+
+# ---- spheres ---------------------------------------------------------------------------------
+
+@pytest.mark.parametrize("radius, pattern", [
+    (-1e-3, r"radius.*-0\.001"), (0.0, r"radius.*0\.0"), (NAN, r"radius.*nan")])
+def test_add_sphere_rejects_bad_radius(ref_sim, ref_material, radius, pattern):
+    with pytest.raises(ValueError, match=pattern):
+        ref_sim.add_sphere((0.0, 0.0, 0.0), radius, ref_material)
+    assert ref_sim.size == 0
+
+
+def test_add_spheres_rejects_a_bad_radius_entry(ref_sim, ref_material):
+    """The message names the argument, the offending entry and its value."""
+    with pytest.raises(ValueError, match=r"radius.*entry 1.*-0\.001"):
+        ref_sim.add_spheres([(0.0, 0.0, 0.0), (0.01, 0.0, 0.0)], [R, -1e-3], ref_material)
+    with pytest.raises(ValueError, match=r"radius.*\(2,\).*\(3,\)"):
+        ref_sim.add_spheres([(0.0, 0.0, 0.0), (0.01, 0.0, 0.0)], [R, R, R], ref_material)
+    assert ref_sim.size == 0
+
+
+@pytest.mark.parametrize("bad, pattern", [(NAN, r"positions.*row 1.*nan"),
+                                          (INF, r"positions.*row 1.*inf"),
+                                          (-INF, r"positions.*row 1.*-inf")])
+def test_add_spheres_rejects_non_finite_positions(ref_sim, ref_material, bad, pattern):
+    with pytest.raises(ValueError, match=pattern):
+        ref_sim.add_spheres([(0.0, 0.0, 0.0), (0.01, bad, 0.0)], R, ref_material)
+    with pytest.raises(ValueError, match=r"position.*" + ("nan" if bad != bad else "inf")):
+        ref_sim.add_sphere((0.0, 0.0, bad), R, ref_material)
+    assert ref_sim.size == 0
+
+
+def test_add_spheres_rejects_non_finite_velocities(ref_sim, ref_material):
+    with pytest.raises(ValueError, match=r"velocities.*nan"):
+        ref_sim.add_spheres([(0.0, 0.0, 0.0)], R, ref_material, velocities=[(0.0, NAN, 0.0)])
+    with pytest.raises(ValueError, match=r"angular_velocities.*inf"):
+        ref_sim.add_spheres([(0.0, 0.0, 0.0)], R, ref_material,
+                            angular_velocities=[(0.0, INF, 0.0)])
+    assert ref_sim.size == 0
+
+
+def test_shape_mismatches_are_rejected(ref_sim, ref_material):
+    """positions of shape (N, 2), velocities for a different N, scalar positions."""
+    with pytest.raises(ValueError, match=r"positions.*\(N, 3\).*\(2, 2\)"):
+        ref_sim.add_spheres([(0.0, 0.0), (1.0, 1.0)], R, ref_material)
+    with pytest.raises(ValueError, match=r"velocities.*\(2, 3\).*\(1, 3\)"):
+        ref_sim.add_spheres([(0.0, 0.0, 0.0), (0.01, 0.0, 0.0)], R, ref_material,
+                            velocities=[(0.0, 0.0, 0.0)])
+    with pytest.raises(ValueError, match=r"angular_velocities.*\(2, 3\).*\(3, 3\)"):
+        ref_sim.add_spheres([(0.0, 0.0, 0.0), (0.01, 0.0, 0.0)], R, ref_material,
+                            angular_velocities=np.zeros((3, 3)))
+    with pytest.raises(ValueError, match=r"positions.*shape"):
+        ref_sim.add_spheres(np.zeros((2, 3, 1)), R, ref_material)
+    with pytest.raises(ValueError, match=r"position.*3 components"):
+        ref_sim.add_sphere((0.0, 0.0), R, ref_material)
+    assert ref_sim.size == 0
+
+
+def test_state_setters_check_shape_and_finiteness(ref_sim, ref_material):
+    ref_sim.add_spheres([(0.0, 0.0, 0.01), (0.01, 0.0, 0.01)], R, ref_material)
+    x0 = ref_sim.positions.copy()
+    with pytest.raises(ValueError, match=r"positions.*\(2, 3\).*\(3, 3\)"):
+        ref_sim.positions = np.zeros((3, 3))
+    bad = x0.copy()
+    bad[1, 2] = NAN
+    with pytest.raises(ValueError, match=r"positions.*row 1.*nan"):
+        ref_sim.positions = bad
+    with pytest.raises(ValueError, match=r"velocities.*\(2, 3\).*\(1, 3\)"):
+        ref_sim.velocities = np.zeros((1, 3))
+    with pytest.raises(ValueError, match=r"angular_velocities.*inf"):
+        ref_sim.angular_velocities = [(0.0, 0.0, 0.0), (INF, 0.0, 0.0)]
+    np.testing.assert_array_equal(ref_sim.positions, x0)
+    assert np.all(ref_sim.velocities == 0) and np.all(ref_sim.angular_velocities == 0)
+
+
+@pytest.mark.parametrize("bad", ["glass", None, 2500.0, {"density": 2500.0}])
+def test_material_argument_must_be_a_material(ref_sim, bad):
+    with pytest.raises(TypeError, match=r"material.*Material"):
+        ref_sim.add_spheres([(0.0, 0.0, 0.0)], R, bad)
+    with pytest.raises(TypeError, match=r"material"):
+        ref_sim.add_sphere((0.0, 0.0, 0.0), R, bad)
+    with pytest.raises(TypeError, match=r"material"):
+        ref_sim.add_plane(point=(0.0, 0.0, 0.0), normal=(0.0, 0.0, 1.0), material=bad)
+    assert ref_sim.size == 0
+
+
+# ---- initial overlaps (checked at the first run) -----------------------------------------------
+
+def test_overlapping_initial_spheres_are_refused_naming_both_ids(ref_sim, ref_material):
+    """Spheres 1 and 2 overlap by 4e-5 m = 0.08 r > initial_overlap = 0.05 r: the first run()
+    raises ValueError naming ids 1 and 2, and nothing moves."""
+    ref_sim.add_spheres([(0.0, 0.0, 0.0), (5e-3, 0.0, 0.0), (5e-3 + 2 * R - 4e-5, 0.0, 0.0)],
+                        R, ref_material)
+    x0 = ref_sim.positions.copy()
+    with pytest.raises(ValueError, match=r"overlap.*\b1\b.*\b2\b"):
+        ref_sim.run(steps=1)
+    with pytest.raises(ValueError, match=r"overlap.*\b1\b.*\b2\b"):  # still refused
+        ref_sim.run(steps=1)
+    assert ref_sim.step_count == 0
+    np.testing.assert_array_equal(ref_sim.positions, x0)
+
+
+def test_overlap_within_the_tolerance_is_accepted(ref_sim, ref_material):
+    """An initial overlap of 0.04 r < 0.05 r runs."""
+    ref_sim.gravity = (0.0, 0.0, 0.0)
+    ref_sim.add_spheres([(0.0, 0.0, 0.0), (2 * R - 0.04 * R, 0.0, 0.0)], R, ref_material)
+    ref_sim.run(steps=5)
+    assert ref_sim.step_count == 5
+
+
+def test_sphere_overlapping_a_wall_is_refused(ref_sim, ref_material):
+    """Sphere 0 overlaps wall 0 by 0.1 r: refused, naming the sphere and the wall."""
+    ref_sim.add_sphere((0.0, 0.0, 0.9 * R), R, ref_material)
+    ref_sim.add_plane(point=(0.0, 0.0, 0.0), normal=(0.0, 0.0, 1.0), material=ref_material)
+    with pytest.raises(ValueError, match=r"sphere 0.*wall 0"):
+        ref_sim.run(steps=1)
+    assert ref_sim.step_count == 0
+
+
+# ---- time step and run() -----------------------------------------------------------------------
+
+@pytest.mark.parametrize("dt, pattern", [(0.0, r"dt.*0\.0"), (-1e-6, r"dt.*-1e-06"),
+                                         (NAN, r"dt.*nan"), (INF, r"dt.*inf")])
+def test_non_positive_or_non_finite_dt_is_refused(dt, pattern):
+    with pytest.raises(ValueError, match=pattern):
+        tsubu.Simulation(dt=dt)
+    sim = tsubu.Simulation(dt=1e-6)
+    with pytest.raises(ValueError, match=pattern):
+        sim.dt = dt
+    assert sim.dt == 1e-6
+
+
+def test_dt_above_the_stability_bound_is_refused(ref_material):
+    sim = tsubu.Simulation(threads=1)
+    sim.add_sphere((0.0, 0.0, 2 * R), R, ref_material)
+    sim.add_plane(point=(0.0, 0.0, 0.0), normal=(0.0, 0.0, 1.0), material=ref_material)
+    sim.dt = 1.5 * sim.critical_time_step()
+    with pytest.raises(ValueError, match=r"\bdt\b.*stability"):
+        sim.run(steps=1)
+    assert sim.step_count == 0
+
+
+def test_run_needs_exactly_one_of_steps_and_time(ref_sim, ref_material):
+    ref_sim.add_sphere((0.0, 0.0, 0.0), R, ref_material)
+    with pytest.raises(TypeError, match=r"steps.*time"):
+        ref_sim.run()
+    with pytest.raises(TypeError, match=r"steps.*time"):
+        ref_sim.run(steps=10, time=1e-5)
+    with pytest.raises(ValueError, match=r"steps.*-1"):
+        ref_sim.run(steps=-1)
+    with pytest.raises(TypeError, match=r"steps.*1\.5"):
+        ref_sim.run(steps=1.5)
+    with pytest.raises(ValueError, match=r"time.*-1"):
+        ref_sim.run(time=-1.0)
+    assert ref_sim.step_count == 0
+    ref_sim.run(time=1e-5)  # = 10 steps of 1e-6 s
+    assert ref_sim.step_count == 10
+
+
+def test_run_on_an_empty_scene_is_clean():
+    """No spheres, dt given: the run either advances time (nothing to move) or is refused with
+    a ValueError that says what is missing. It must not leak an internal C++ error."""
+    for with_wall in (False, True):
+        sim = tsubu.Simulation(dt=1e-6, threads=1)
+        if with_wall:
+            sim.add_plane(point=(0.0, 0.0, 0.0), normal=(0.0, 0.0, 1.0), material=make_material())
+        try:
+            sim.run(steps=10)
+        except ValueError as err:
+            assert "sphere" in str(err), f"unclear error for an empty scene: {err}"
+        else:
+            assert sim.step_count == 10 and sim.time == pytest.approx(1e-5)
+
+
+def test_no_time_step_without_possible_contacts(ref_material):
+    """dt=None and no contact possible (one sphere, no wall): no t_c to derive dt from; the
+    run is refused with a ValueError naming dt."""
+    sim = tsubu.Simulation(threads=1)
+    sim.add_sphere((0.0, 0.0, 0.0), R, ref_material)
+    assert math.isinf(sim.contact_duration())
+    with pytest.raises(ValueError, match=r"\bdt\b"):
+        sim.run(steps=1)
+
+
+# ---- walls ---------------------------------------------------------------------------------
+
+def test_plane_with_zero_normal_is_refused(ref_sim, ref_material):
+    with pytest.raises(ValueError, match=r"normal.*\(0, 0, 0\)"):
+        ref_sim.add_plane(point=(0.0, 0.0, 0.0), normal=(0, 0, 0), material=ref_material)
+    with pytest.raises(ValueError, match=r"coefficients.*\(0, 0, 0, 1\)"):
+        ref_sim.add_plane(coefficients=(0, 0, 0, 1), material=ref_material)
+    with pytest.raises(ValueError, match=r"normal.*nan"):
+        ref_sim.add_plane(point=(0.0, 0.0, 0.0), normal=(0.0, NAN, 1.0), material=ref_material)
+    with pytest.raises(ValueError, match=r"coefficients.*not both|point.*coefficients|coefficients.*point"):
+        ref_sim.add_plane(point=(0.0, 0.0, 0.0), coefficients=(0, 0, 1, 0), material=ref_material)
+    with pytest.raises(ValueError, match=r"wall.*5"):
+        ref_sim.plane(5)
+
+
+# ---- Simulation options ---------------------------------------------------------------------
+
+@pytest.mark.parametrize("kwargs, exc, pattern", [
+    (dict(tangential_history="foo"), ValueError, r"tangential_history.*'foo'"),
+    (dict(gravity=(0.0, NAN, 0.0)), ValueError, r"gravity.*nan"),
+    (dict(gravity=(0.0, -9.81)), ValueError, r"gravity.*3 components"),
+    (dict(threads=0), ValueError, r"threads.*got 0"),
+    (dict(threads=1.5), TypeError, r"threads.*1\.5"),
+    (dict(seed="x"), TypeError, r"seed.*'x'"),
+    (dict(skin=-1e-4), ValueError, r"skin.*-0\.0001"),
+    (dict(max_overlap=0.0), ValueError, r"max_overlap.*0\.0"),
+    (dict(initial_overlap=-0.1), ValueError, r"initial_overlap.*-0\.1"),
+    (dict(allow_unstable_dt="yes"), TypeError, r"allow_unstable_dt.*'yes'"),
+])
+def test_simulation_options_are_checked(kwargs, exc, pattern):
+    with pytest.raises(exc, match=pattern):
+        tsubu.Simulation(**kwargs)
+
+
+def test_set_pair_checks_its_parameters(ref_sim, ref_material):
+    other = make_material(kn=2000.0)
+    with pytest.raises(ValueError, match=r"restitution.*0\.0"):
+        ref_sim.set_pair(ref_material, other, restitution=0.0)
+    with pytest.raises(ValueError, match=r"kn.*-5"):
+        ref_sim.set_pair(ref_material, other, kn=-5.0)
+    with pytest.raises(TypeError, match=r"stiffness"):
+        ref_sim.set_pair(ref_material, other, stiffness=1.0)
+    with pytest.raises(TypeError, match=r"material_b"):
+        ref_sim.set_pair(ref_material, "steel", kn=1.0)
+    # nothing was overridden: the harmonic mean of kn stays
+    assert ref_sim.pair_parameters(ref_material, other)["kn"] == pytest.approx(
+        2 * 1000.0 * 2000.0 / 3000.0, rel=1e-12)
