@@ -271,5 +271,12 @@ PYBIND11_MODULE(_core, m) {
              return a;
            })
       .def_property_readonly("rebuild_count", &tsubu::Simulation::rebuild_count)
+      .def("phase_seconds",
+           [](const tsubu::Simulation& s) {
+             py::dict d;
+             for (int p = 0; p < int(tsubu::Phase::Count); ++p)
+               d[tsubu::phase_name(tsubu::Phase(p))] = s.phase_seconds()[p];
+             return d;
+           })
       .def("skin", &tsubu::Simulation::skin);
 }

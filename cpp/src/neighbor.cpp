@@ -104,22 +104,20 @@ void Simulation::rebuild(bool keep_history) {
   const double skin = this->skin();
   list_skin_ = skin;
 
-  // 1. Remember the old lists and their history in terms of ids.
-  const bool transfer = keep_history && has_history_ && !pair_offset_.empty() &&
-                        pair_xi_.size() == 3 * pair_partner_.size();
-  const bool transfer_walls = keep_history && has_history_ && !wall_offset_.empty() &&
-                              wall_xi_.size() == 3 * wall_index_.size();
-  std::size_t old_n = 0;
-  if (transfer || transfer_walls) {
-    old_n = pair_offset_.size() - 1;
+  // 1. Remember the old lists, in terms of ids, and their per-entry state.
+  const std::size_t old_n = pair_offset_.size() == 0 ? 0 : pair_offset_.size() - 1;
+  const bool transfer = keep_history && old_n > 0 && wall_offset_.size() == old_n + 1;
+  if (transfer) {
     old_offset_.swap(pair_offset_);
     old_partner_id_.resize(pair_partner_.size());
     for (std::size_t e = 0; e < pair_partner_.size(); ++e) old_partner_id_[e] = id_[pair_partner_[e]];
-    old_xi_.swap(pair_xi_);
     old_wall_offset_.swap(wall_offset_);
     old_wall_index_.swap(wall_index_);
-    old_wall_xi_.swap(wall_xi_);
     old_index_of_ = index_of_;
+    for (std::size_t k = 0; k < kEntryArrays; ++k) {
+      old_pair_state_[k].swap(*pair_state(k));
+      old_wall_state_[k].swap(*wall_state(k));
+    }
   }
 
   // 2. Cells: the bounding box of the particles, cells no smaller than the largest cutoff.
@@ -219,37 +217,47 @@ void Simulation::rebuild(bool keep_history) {
         wall_index_[e++] = static_cast<Index>(w);
   }
 
-  // 6. Per-entry buffers, and the history carried over by (owner id, partner id / wall).
+  // 6. Per-entry buffers, and the state of each contact (history, overlap, last results)
+  //    carried over by (owner id, partner id) or (id, wall).
   size_entry_buffers();
-  std::fill(pair_xi_.begin(), pair_xi_.end(), 0.0);
-  std::fill(wall_xi_.begin(), wall_xi_.end(), 0.0);
-  std::fill(pair_overlap_.begin(), pair_overlap_.end(), 0.0);  // no contact until evaluated
-  std::fill(wall_overlap_.begin(), wall_overlap_.end(), 0.0);
-  if (transfer || transfer_walls) {
+  for (std::size_t k = 0; k < kEntryArrays; ++k) {
+    std::fill(pair_state(k)->begin(), pair_state(k)->end(), 0.0);
+    std::fill(wall_state(k)->begin(), wall_state(k)->end(), 0.0);
+  }
+  if (transfer) {
+    pair_from_old_.assign(pair_partner_.size(), -1);
+    wall_from_old_.assign(wall_index_.size(), -1);
 #pragma omp parallel for schedule(static) num_threads(threads())
     for (Index i = 0; i < ni; ++i) {
       const Id a = id_[i];
-      if (a >= static_cast<Id>(old_index_of_.size())) continue;
+      if (a >= static_cast<Id>(old_index_of_.size())) continue;  // added since
       const Index oi = old_index_of_[a];
       if (static_cast<std::size_t>(oi) >= old_n) continue;
-      if (transfer) {
-        for (Index e = pair_offset_[i]; e < pair_offset_[i + 1]; ++e) {
-          const Id b = id_[pair_partner_[e]];
-          for (Index q = old_offset_[oi]; q < old_offset_[oi + 1]; ++q)
-            if (old_partner_id_[q] == b) {
-              std::copy(&old_xi_[3 * q], &old_xi_[3 * q] + 3, &pair_xi_[3 * e]);
-              break;
-            }
-        }
+      for (Index e = pair_offset_[i]; e < pair_offset_[i + 1]; ++e) {
+        const Id b = id_[pair_partner_[e]];
+        for (Index q = old_offset_[oi]; q < old_offset_[oi + 1]; ++q)
+          if (old_partner_id_[q] == b) {
+            pair_from_old_[e] = q;
+            break;
+          }
       }
-      if (transfer_walls) {
-        for (Index e = wall_offset_[i]; e < wall_offset_[i + 1]; ++e)
-          for (Index q = old_wall_offset_[oi]; q < old_wall_offset_[oi + 1]; ++q)
-            if (old_wall_index_[q] == wall_index_[e]) {
-              std::copy(&old_wall_xi_[3 * q], &old_wall_xi_[3 * q] + 3, &wall_xi_[3 * e]);
-              break;
-            }
-      }
+      for (Index e = wall_offset_[i]; e < wall_offset_[i + 1]; ++e)
+        for (Index q = old_wall_offset_[oi]; q < old_wall_offset_[oi + 1]; ++q)
+          if (old_wall_index_[q] == wall_index_[e]) {
+            wall_from_old_[e] = q;
+            break;
+          }
+    }
+    auto carry = [](const std::vector<Index>& from, const std::vector<double>& old,
+                    std::vector<double>& now, std::size_t width) {
+      if (now.empty() || old.empty()) return;  // the old or the new law has no such array
+      for (std::size_t e = 0; e < from.size(); ++e)
+        if (from[e] >= 0)
+          std::copy(&old[width * from[e]], &old[width * from[e]] + width, &now[width * e]);
+    };
+    for (std::size_t k = 0; k < kEntryArrays; ++k) {
+      carry(pair_from_old_, old_pair_state_[k], *pair_state(k), kEntryWidth[k]);
+      carry(wall_from_old_, old_wall_state_[k], *wall_state(k), kEntryWidth[k]);
     }
   }
 
@@ -286,6 +294,18 @@ void Simulation::size_entry_buffers() {
   const std::size_t mr = has_rolling_ ? m : 0, kr = has_rolling_ ? k : 0;
   pair_roll_.resize(3 * mr, 0.0);
   wall_roll_.resize(3 * kr, 0.0);
+}
+
+std::vector<double>* Simulation::pair_state(std::size_t k) {
+  std::vector<double>* arrays[kEntryArrays] = {&pair_xi_, &pair_overlap_, &pair_force_, &pair_nxft_,
+                                               &pair_roll_};
+  return arrays[k];
+}
+
+std::vector<double>* Simulation::wall_state(std::size_t k) {
+  std::vector<double>* arrays[kEntryArrays] = {&wall_xi_, &wall_overlap_, &wall_force_, &wall_nxft_,
+                                               &wall_roll_};
+  return arrays[k];
 }
 
 std::vector<std::array<Id, 2>> Simulation::neighbor_pairs() const {

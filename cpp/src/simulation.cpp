@@ -36,6 +36,11 @@ bool finite3(const double* p) {
 
 Simulation::Simulation(const Options& options) : opt_(options) {}
 
+const char* phase_name(Phase p) {
+  static const char* names[] = {"neighbors", "contacts", "integrate"};
+  return names[int(p)];
+}
+
 int Simulation::threads() const {
 #ifdef TSUBU_HAVE_OPENMP
   return opt_.threads > 0 ? opt_.threads : omp_get_max_threads();
@@ -392,6 +397,15 @@ void Simulation::report_nonfinite() const {
                              step_ + 1, id_[k]);
   }
   throw InstabilityError("unstable: non-finite force", step_ + 1, -1);
+}
+
+void Simulation::report_nonfinite_velocity() const {
+  for (std::size_t k = 0; k < n_; ++k)
+    if (!finite3(v_.data() + 3 * k))
+      throw InstabilityError("unstable at step " + std::to_string(step_ + 1) +
+                                 ": non-finite velocity of sphere " + std::to_string(id_[k]),
+                             step_ + 1, id_[k]);
+  throw InstabilityError("unstable: non-finite velocity", step_ + 1, -1);
 }
 
 // ---- state access ----------------------------------------------------------------------------

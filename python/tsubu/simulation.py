@@ -406,6 +406,12 @@ class Simulation:
         than r_i + r_j + skin at the last rebuild; shape (M, 2)."""
         return self._core.neighbor_pairs()
 
+    def phase_seconds(self) -> dict:
+        """Wall-clock seconds spent so far in each phase of the time loop: ``neighbors``
+        (rebuild checks and rebuilds), ``contacts`` (contact laws of pairs and walls),
+        ``integrate`` (summing reactions and advancing the spheres)."""
+        return self._core.phase_seconds()
+
     @property
     def rebuild_count(self) -> int:
         """Neighbour-list rebuilds so far."""

@@ -4,6 +4,7 @@
 // every neighbour rebuild; every accessor speaks in stable ids (the order of addition).
 #pragma once
 #include <array>
+#include <chrono>
 #include <string>
 #include <vector>
 
@@ -57,10 +58,30 @@ struct ContactInfo {
   Vec3 tangential_displacement;  // stored history xi, m (zero without friction)
 };
 
+// Wall-clock time spent in each phase of the loop, summed over runs (for benchmarks).
+enum class Phase { Neighbors = 0, Contacts, Integrate, Count };
+const char* phase_name(Phase p);
+
 namespace detail {
 template <class Law, bool MovingWalls>
 struct Stepper;
 }
+
+// Adds the time since the previous lap to the named phase (steady clock, ~20 ns a lap).
+class PhaseTimer {
+ public:
+  explicit PhaseTimer(std::array<double, int(Phase::Count)>& sums)
+      : sums_(sums), last_(std::chrono::steady_clock::now()) {}
+  void lap(Phase p) {
+    const auto now = std::chrono::steady_clock::now();
+    sums_[int(p)] += std::chrono::duration<double>(now - last_).count();
+    last_ = now;
+  }
+
+ private:
+  std::array<double, int(Phase::Count)>& sums_;
+  std::chrono::steady_clock::time_point last_;
+};
 
 class Simulation {
  public:
@@ -129,6 +150,8 @@ class Simulation {
   // Pairs in the current list (ids, lower first): all pairs within r_i + r_j + skin.
   std::vector<std::array<Id, 2>> neighbor_pairs() const;
   long rebuild_count() const { return rebuilds_; }
+  // Seconds spent per phase of the loop since construction (see Phase).
+  const std::array<double, int(Phase::Count)>& phase_seconds() const { return phase_seconds_; }
   double skin() const;
 
  private:
@@ -144,6 +167,7 @@ class Simulation {
   void move_planes(double dt);
   [[noreturn]] void report_overlap(double dt) const;
   [[noreturn]] void report_nonfinite() const;
+  [[noreturn]] void report_nonfinite_velocity() const;
   int threads() const;
   template <class F>
   void for_each_contact_type(F&& f) const;
@@ -178,11 +202,19 @@ class Simulation {
   std::vector<Vec3> plane_point_ref_, plane_normal_ref_;
   double plane_reach_ = 0;           // max distance from a plane's point to the particles
   long rebuilds_ = 0;
+  std::array<double, int(Phase::Count)> phase_seconds_{};
   // Scratch reused by rebuilds (no allocation once warm).
   std::vector<Index> cell_start_, cell_of_, perm_, old_offset_, old_wall_offset_, old_index_of_;
   std::vector<Id> old_partner_id_;
-  std::vector<Index> old_wall_index_;
-  std::vector<double> old_xi_, old_wall_xi_, scratch_;
+  std::vector<Index> old_wall_index_;  // (previous list, during a rebuild)
+  // Per-entry state carried across rebuilds: history, overlap, force, n x F_t, rolling vector.
+  static constexpr std::size_t kEntryArrays = 5;
+  static constexpr std::size_t kEntryWidth[kEntryArrays] = {3, 1, 3, 3, 3};
+  std::vector<double>* pair_state(std::size_t k);
+  std::vector<double>* wall_state(std::size_t k);
+  std::array<std::vector<double>, kEntryArrays> old_pair_state_, old_wall_state_;
+  std::vector<Index> pair_from_old_, wall_from_old_;
+  std::vector<double> scratch_;
   std::vector<int> scratch_int_;
   std::vector<Id> scratch_id_;
 

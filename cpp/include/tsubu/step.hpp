@@ -1,10 +1,11 @@
 // The time loop, written once as a template over the contact law and the wall motion. Each
 // specialisation is instantiated in registry.cpp; a run picks one when it starts.
 //
-// One step (symplectic Euler, 2.2): contact pass over the half pair list and the near-wall list
-// (forces from x^n, v^n, w^n, history updated), a gather pass that sums each particle's contacts
-// in ascending partner-id order (bit-identical for any thread count), then
-// v^{n+1} = v^n + dt F/m, w^{n+1} = w^n + dt T/I, x^{n+1} = x^n + dt v^{n+1}.
+// One step (symplectic Euler, 2.2) is two parallel passes: a contact pass over owners (forces
+// from x^n, v^n, w^n, history updated, each owner's share summed), then a pass over particles
+// that adds the reactions and advances v^{n+1} = v^n + dt F/m, w^{n+1} = w^n + dt T/I,
+// x^{n+1} = x^n + dt v^{n+1}. Every particle's sum runs over its partners in an order fixed by
+// ids, so results are bit-identical for any thread count and any rebuild schedule.
 #pragma once
 #include <algorithm>
 #include <cmath>
@@ -24,29 +25,21 @@ struct Stepper {
 
   static void run(Simulation& s, long steps) {
     const double dt = s.dt_;
+    PhaseTimer clock(s.phase_seconds_);
     for (long k = 0; k < steps; ++k) {
       if (s.needs_rebuild()) s.rebuild(true);
+      clock.lap(Phase::Neighbors);
       double worst = 0;
-      pair_pass(s, dt, worst);
-      wall_pass(s, dt, worst);
+      const bool bad = contact_pass(s, dt, worst);
+      clock.lap(Phase::Contacts);
       if (!(worst <= s.opt_.max_overlap)) s.report_overlap(dt);
-      if (gather(s)) s.report_nonfinite();
-      integrate(s, dt);
+      if (bad) s.report_nonfinite();
+      if (finish_pass(s, dt)) s.report_nonfinite_velocity();
       if constexpr (MovingWalls) s.move_planes(dt);
       ++s.step_;
       s.time_ += dt;
+      clock.lap(Phase::Integrate);
     }
-  }
-
-  static void load(History& h, const double* xi) {
-    if constexpr (kHistory) std::copy(xi, xi + 3, h.xi);
-    (void)h;
-    (void)xi;
-  }
-  static void store(const History& h, double* xi) {
-    if constexpr (kHistory) std::copy(h.xi, h.xi + 3, xi);
-    (void)h;
-    (void)xi;
   }
 
   // A contact that opens loses the energy still stored in its tangential spring.
@@ -57,7 +50,24 @@ struct Stepper {
     std::fill(xi, xi + 3, 0.0);
   }
 
-  static void pair_pass(Simulation& s, double dt, double& worst_out) {
+  // Evaluates the law on geometry g with the entry's stored history; returns the result.
+  static ContactResult evaluate(const ContactGeometry& g, const PairParams& p, double dt,
+                                double* xi) {
+    History h;
+    if constexpr (kHistory) std::copy(xi, xi + 3, h.xi);
+    ContactResult res;
+    Law::evaluate(g, p, dt, h, res);
+    if constexpr (kHistory) std::copy(h.xi, h.xi + 3, xi);
+    (void)xi;
+    return res;
+  }
+
+  // Pass 1, over owners: every pair entry (owned by the lower id) and every near-wall entry is
+  // evaluated; each entry's result is stored for its partner, and the owner's own share is
+  // summed in registers (partners in ascending id order, then walls) into f_, t_. Each entry
+  // and each owner is written by one thread only. Returns true if some owner's sum is not
+  // finite (which catches any non-finite contact force).
+  static bool contact_pass(Simulation& s, double dt, double& worst_out) {
     const Index n = static_cast<Index>(s.n_);
     const double *x = s.x_.data(), *v = s.v_.data(), *w = s.w_.data();
     const double *r = s.radius_.data(), *m = s.mass_.data(), *inv_i = s.inv_inertia_.data();
@@ -65,21 +75,31 @@ struct Stepper {
     const Index *off = s.pair_offset_.data(), *partner = s.pair_partner_.data();
     double *xi = s.pair_xi_.data(), *force = s.pair_force_.data(), *nxft = s.pair_nxft_.data();
     double *roll = s.pair_roll_.data(), *overlap = s.pair_overlap_.data();
-    double* diss = s.dissipated_.data();
+    const Index *woff = s.wall_offset_.data(), *wall = s.wall_index_.data();
+    double *wxi = s.wall_xi_.data(), *wforce = s.wall_force_.data();
+    double *wnxft = s.wall_nxft_.data(), *wroll = s.wall_roll_.data();
+    double* woverlap = s.wall_overlap_.data();
+    double *f = s.f_.data(), *t = s.t_.data(), *diss = s.dissipated_.data();
+    const Plane* planes = s.planes_.data();
     const PairTable& table = s.pairs_;
     double worst = 0;
-#pragma omp parallel for schedule(static) num_threads(s.threads()) reduction(max : worst)
+    int bad = 0;
+#pragma omp parallel for schedule(static) num_threads(s.threads()) reduction(max : worst, bad)
     for (Index i = 0; i < n; ++i) {
       const Vec3 xi_pos = vec3(x, i);
       const double ri = r[i];
+      Vec3 F = Vec3::Zero(), T = Vec3::Zero();
+      double lost = 0;
       for (Index e = off[i]; e < off[i + 1]; ++e) {
         const Index j = partner[e];
         const Vec3 d = xi_pos - vec3(x, j);
         const double rs = ri + r[j];
         const double dist2 = d.squaredNorm();
         if (dist2 >= rs * rs) {  // (1.10): no contact; the history ends with it
-          overlap[e] = 0;
-          if constexpr (kHistory) release(table(mat[i], mat[j]), xi + 3 * e, diss[i]);
+          if (overlap[e] != 0) {
+            overlap[e] = 0;
+            if constexpr (kHistory) release(table(mat[i], mat[j]), xi + 3 * e, lost);
+          }
           continue;
         }
         ContactGeometry g;
@@ -102,47 +122,29 @@ struct Stepper {
           g.rj = r[j];
           g.spin_mobility = ri * inv_i[i] + r[j] * inv_i[j];
         }
-        History h;
-        load(h, xi + 3 * e);
-        ContactResult res;
-        Law::evaluate(g, table(mat[i], mat[j]), dt, h, res);
-        store(h, xi + 3 * e);
+        ContactResult res = evaluate(g, table(mat[i], mat[j]), dt, xi + 3 * e);
         overlap[e] = g.delta;
         vec3(force, e) = res.force;
-        if constexpr (kTangential) vec3(nxft, e) = res.n_cross_ft;
+        F += res.force;
+        if constexpr (kTangential) {
+          vec3(nxft, e) = res.n_cross_ft;
+          T -= g.ci * res.n_cross_ft;  // (1.19) with the contact-point lever c_i
+        }
         if constexpr (kRolling) {
           vec3(roll, e) = res.roll;
+          T += ri * res.roll;  // (1.20)
           res.power -= res.roll.dot(ri * vec3(w, i) - r[j] * vec3(w, j));
         }
-        diss[i] += res.power * dt;  // the owner books the pair's dissipation
+        lost += res.power * dt;  // the owner books the pair's dissipation
       }
-    }
-    worst_out = std::max(worst_out, worst);
-  }
-
-  static void wall_pass(Simulation& s, double dt, double& worst_out) {
-    if (s.planes_.empty()) return;
-    const Index n = static_cast<Index>(s.n_);
-    const double *x = s.x_.data(), *v = s.v_.data(), *w = s.w_.data();
-    const double *r = s.radius_.data(), *m = s.mass_.data(), *inv_i = s.inv_inertia_.data();
-    const int* mat = s.material_.data();
-    const Index *off = s.wall_offset_.data(), *wall = s.wall_index_.data();
-    double *xi = s.wall_xi_.data(), *force = s.wall_force_.data(), *nxft = s.wall_nxft_.data();
-    double *roll = s.wall_roll_.data(), *overlap = s.wall_overlap_.data();
-    double* diss = s.dissipated_.data();
-    const Plane* planes = s.planes_.data();
-    const PairTable& table = s.pairs_;
-    double worst = 0;
-#pragma omp parallel for schedule(static) num_threads(s.threads()) reduction(max : worst)
-    for (Index i = 0; i < n; ++i) {
-      for (Index e = off[i]; e < off[i + 1]; ++e) {
+      for (Index e = woff[i]; e < woff[i + 1]; ++e) {
         const Plane& P = planes[wall[e]];
-        const Vec3 xi_pos = vec3(x, i);
-        const double ri = r[i];
         const double delta = ri - P.normal.dot(xi_pos - P.point);  // (3.1), signed: a half-space
         if (delta <= 0) {
-          overlap[e] = 0;
-          if constexpr (kHistory) release(table(mat[i], P.material), xi + 3 * e, diss[i]);
+          if (woverlap[e] != 0) {
+            woverlap[e] = 0;
+            if constexpr (kHistory) release(table(mat[i], P.material), wxi + 3 * e, lost);
+          }
           continue;
         }
         ContactGeometry g;
@@ -166,99 +168,74 @@ struct Stepper {
           g.rj = 0;
           g.spin_mobility = ri * inv_i[i];
         }
-        History h;
-        load(h, xi + 3 * e);
-        ContactResult res;
-        Law::evaluate(g, table(mat[i], P.material), dt, h, res);
-        store(h, xi + 3 * e);
-        overlap[e] = delta;
-        vec3(force, e) = res.force;
-        if constexpr (kTangential) vec3(nxft, e) = res.n_cross_ft;
+        ContactResult res = evaluate(g, table(mat[i], P.material), dt, wxi + 3 * e);
+        woverlap[e] = delta;
+        vec3(wforce, e) = res.force;
+        F += res.force;
+        if constexpr (kTangential) {
+          vec3(wnxft, e) = res.n_cross_ft;
+          T -= g.ci * res.n_cross_ft;
+        }
         if constexpr (kRolling) {
-          vec3(roll, e) = res.roll;
+          vec3(wroll, e) = res.roll;
+          T += ri * res.roll;
           res.power -= ri * res.roll.dot(g.w_rel);
         }
-        diss[i] += res.power * dt;
+        lost += res.power * dt;
       }
+      vec3(f, i) = F;
+      if constexpr (kTorque) vec3(t, i) = T;
+      diss[i] += lost;
+      const double sum = F.sum() + T.sum();
+      if (!(sum - sum == 0)) bad = 1;  // inf or NaN (Eigen's allFinite() is not inlined)
     }
-    worst_out = std::max(worst_out, worst);
+    worst_out = worst;
+    return bad != 0;
   }
 
-  // Sums each particle's contacts (lower-id partners, higher-id partners, then walls) into f, t.
-  // Returns true if some sum is not finite.
-  static bool gather(Simulation& s) {
+  // Pass 2, over particles: adds the reactions of the entries where the particle is the
+  // partner (owners in ascending id order) to its own sum, stores the total in f_, t_, and
+  // advances it (2.2): v += dt (F/m + g), w += dt T/I, x += dt v. Returns true if a new
+  // velocity is not finite.
+  static bool finish_pass(Simulation& s, double dt) {
     const Index n = static_cast<Index>(s.n_);
-    const double* r = s.radius_.data();
-    const Index *off = s.pair_offset_.data(), *roff = s.rev_offset_.data();
-    const Index *rent = s.rev_entry_.data(), *woff = s.wall_offset_.data();
+    double *x = s.x_.data(), *v = s.v_.data(), *w = s.w_.data();
+    double *f = s.f_.data(), *t = s.t_.data();
+    const double *xr = s.x_ref_.data(), *r = s.radius_.data();
+    const double *inv_m = s.inv_mass_.data(), *inv_i = s.inv_inertia_.data();
+    const Index *roff = s.rev_offset_.data(), *rent = s.rev_entry_.data();
     const double *pf = s.pair_force_.data(), *pt = s.pair_nxft_.data(), *pr = s.pair_roll_.data();
     const double* po = s.pair_overlap_.data();
-    const double *wf = s.wall_force_.data(), *wt = s.wall_nxft_.data(), *wr = s.wall_roll_.data();
-    const double* wo = s.wall_overlap_.data();
-    double *f = s.f_.data(), *t = s.t_.data();
-    const bool walls = !s.planes_.empty();
+    const Vec3 g = s.opt_.gravity;
+    double md = 0;
     int bad = 0;
-#pragma omp parallel for schedule(static) num_threads(s.threads()) reduction(max : bad)
+#pragma omp parallel for schedule(static) num_threads(s.threads()) reduction(max : md, bad)
     for (Index k = 0; k < n; ++k) {
+      Vec3 F = vec3(f, k);
+      Vec3 T = kTorque ? Vec3(vec3(t, k)) : Vec3::Zero();
       const double rk = r[k];
-      Vec3 F = Vec3::Zero(), T = Vec3::Zero();
-      for (Index q = roff[k]; q < roff[k + 1]; ++q) {  // k is the partner: reaction
+      for (Index q = roff[k]; q < roff[k + 1]; ++q) {
         const Index e = rent[q];
         if (!(po[e] > 0)) continue;
         F -= vec3(pf, e);
         if constexpr (kTangential) T -= (rk - 0.5 * po[e]) * vec3(pt, e);
         if constexpr (kRolling) T -= rk * vec3(pr, e);
       }
-      for (Index e = off[k]; e < off[k + 1]; ++e) {
-        if (!(po[e] > 0)) continue;
-        F += vec3(pf, e);
-        if constexpr (kTangential) T -= (rk - 0.5 * po[e]) * vec3(pt, e);
-        if constexpr (kRolling) T += rk * vec3(pr, e);
-      }
-      if (walls) {
-        for (Index e = woff[k]; e < woff[k + 1]; ++e) {
-          if (!(wo[e] > 0)) continue;
-          F += vec3(wf, e);
-          if constexpr (kTangential) T -= (rk - 0.5 * wo[e]) * vec3(wt, e);
-          if constexpr (kRolling) T += rk * vec3(wr, e);
-        }
-      }
       vec3(f, k) = F;
-      if constexpr (kTorque) vec3(t, k) = T;
-      const double sum = F.sum() + T.sum();
-      if (!(sum - sum == 0)) bad = 1;  // inf or NaN somewhere (allFinite() is not inlined)
-    }
-    return bad != 0;
-  }
-
-  static void integrate(Simulation& s, double dt) {
-    const Index n = static_cast<Index>(s.n_);
-    double *x = s.x_.data(), *v = s.v_.data(), *w = s.w_.data();
-    const double *f = s.f_.data(), *t = s.t_.data(), *xr = s.x_ref_.data();
-    const double *inv_m = s.inv_mass_.data(), *inv_i = s.inv_inertia_.data();
-    const double gx = s.opt_.gravity.x(), gy = s.opt_.gravity.y(), gz = s.opt_.gravity.z();
-    double md = 0;
-#pragma omp parallel for schedule(static) num_threads(s.threads()) reduction(max : md)
-    for (Index k = 0; k < n; ++k) {
-      const double im = inv_m[k];
-      double* vk = v + 3 * k;
-      double* xk = x + 3 * k;
-      vk[0] += dt * (f[3 * k] * im + gx);
-      vk[1] += dt * (f[3 * k + 1] * im + gy);
-      vk[2] += dt * (f[3 * k + 2] * im + gz);
+      Vec3 vk = vec3(v, k) + dt * (F * inv_m[k] + g);
+      vec3(v, k) = vk;
       if constexpr (kTorque) {
-        const double ii = inv_i[k];
-        for (int c = 0; c < 3; ++c) w[3 * k + c] += dt * t[3 * k + c] * ii;
+        vec3(t, k) = T;
+        vec3(w, k) += (dt * inv_i[k]) * T;
       }
-      double d2 = 0;
-      for (int c = 0; c < 3; ++c) {
-        xk[c] += dt * vk[c];
-        const double d = xk[c] - xr[3 * k + c];
-        d2 += d * d;
-      }
-      md = std::max(md, d2);
+      const Vec3 xk = vec3(x, k) + dt * vk;
+      vec3(x, k) = xk;
+      md = std::max(md, (xk - vec3(xr, k)).squaredNorm());
+      const double sum = vk.sum();
+      if (!(sum - sum == 0)) bad = 1;
     }
     s.max_disp2_ = md;
+    return bad != 0;
   }
 };
 
