@@ -40,7 +40,7 @@ def cloud(seed: int, n: int, r_min: float, r_max: float, rolling_friction: float
     spin = rng.normal(0.0, 200.0, (n, 3))
     mat = tsubu.Material(density=RHO, kn=KN, restitution=0.5, friction=0.5,
                          rolling_friction=rolling_friction)
-    sim = tsubu.Simulation(gravity=(0.0, 0.0, 0.0), threads=2, tangential_history=history)
+    sim = tsubu.Simulation(gravity=(0.0, 0.0, 0.0), threads=1, tangential_history=history)
     sim.add_spheres(pos, radii, mat, velocities=vel, angular_velocities=spin)
     return sim
 
