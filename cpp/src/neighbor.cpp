@@ -261,6 +261,11 @@ void Simulation::rebuild(bool keep_history) {
     }
   }
 
+  pair_touch_.resize(pair_overlap_.size());
+  wall_touch_.resize(wall_overlap_.size());
+  for (std::size_t e = 0; e < pair_overlap_.size(); ++e) pair_touch_[e] = pair_overlap_[e] > 0;
+  for (std::size_t e = 0; e < wall_overlap_.size(); ++e) wall_touch_[e] = wall_overlap_[e] > 0;
+
   // 7. Reference state for the rebuild criterion.
   x_ref_ = x_;
   max_disp2_ = 0;
@@ -283,8 +288,10 @@ void Simulation::rebuild(bool keep_history) {
 void Simulation::size_entry_buffers() {
   const std::size_t m = pair_partner_.size(), k = wall_index_.size();
   pair_overlap_.resize(m, 0.0);
+  pair_touch_.resize(m, 0);
   pair_force_.resize(3 * m, 0.0);
   wall_overlap_.resize(k, 0.0);
+  wall_touch_.resize(k, 0);
   wall_force_.resize(3 * k, 0.0);
   const std::size_t mt = has_history_ ? m : 0, kt = has_history_ ? k : 0;
   pair_xi_.resize(3 * mt, 0.0);

@@ -195,6 +195,8 @@ class Simulation {
   // Per-entry history (tangential displacement) and results of the last evaluation.
   std::vector<double> pair_xi_, pair_force_, pair_nxft_, pair_roll_, pair_overlap_;
   std::vector<double> wall_xi_, wall_force_, wall_nxft_, wall_roll_, wall_overlap_;
+  // 1 while an entry's spheres touch (same as overlap > 0; a byte is 8x cheaper to stream).
+  std::vector<std::uint8_t> pair_touch_, wall_touch_;
   // Neighbour-list bookkeeping.
   bool list_valid_ = false;
   double list_skin_ = 0;

@@ -79,6 +79,7 @@ struct Stepper {
     double *wxi = s.wall_xi_.data(), *wforce = s.wall_force_.data();
     double *wnxft = s.wall_nxft_.data(), *wroll = s.wall_roll_.data();
     double* woverlap = s.wall_overlap_.data();
+    std::uint8_t *touch = s.pair_touch_.data(), *wtouch = s.wall_touch_.data();
     double *f = s.f_.data(), *t = s.t_.data(), *diss = s.dissipated_.data();
     const Plane* planes = s.planes_.data();
     const PairTable& table = s.pairs_;
@@ -96,7 +97,8 @@ struct Stepper {
         const double rs = ri + r[j];
         const double dist2 = d.squaredNorm();
         if (dist2 >= rs * rs) {  // (1.10): no contact; the history ends with it
-          if (overlap[e] != 0) {
+          if (touch[e]) {
+            touch[e] = 0;
             overlap[e] = 0;
             if constexpr (kHistory) release(table(mat[i], mat[j]), xi + 3 * e, lost);
           }
@@ -123,6 +125,7 @@ struct Stepper {
           g.spin_mobility = ri * inv_i[i] + r[j] * inv_i[j];
         }
         ContactResult res = evaluate(g, table(mat[i], mat[j]), dt, xi + 3 * e);
+        touch[e] = 1;
         overlap[e] = g.delta;
         vec3(force, e) = res.force;
         F += res.force;
@@ -141,7 +144,8 @@ struct Stepper {
         const Plane& P = planes[wall[e]];
         const double delta = ri - P.normal.dot(xi_pos - P.point);  // (3.1), signed: a half-space
         if (delta <= 0) {
-          if (woverlap[e] != 0) {
+          if (wtouch[e]) {
+            wtouch[e] = 0;
             woverlap[e] = 0;
             if constexpr (kHistory) release(table(mat[i], P.material), wxi + 3 * e, lost);
           }
@@ -169,6 +173,7 @@ struct Stepper {
           g.spin_mobility = ri * inv_i[i];
         }
         ContactResult res = evaluate(g, table(mat[i], P.material), dt, wxi + 3 * e);
+        wtouch[e] = 1;
         woverlap[e] = delta;
         vec3(wforce, e) = res.force;
         F += res.force;
@@ -185,7 +190,7 @@ struct Stepper {
       }
       vec3(f, i) = F;
       if constexpr (kTorque) vec3(t, i) = T;
-      diss[i] += lost;
+      if (lost != 0) diss[i] += lost;
       const double sum = F.sum() + T.sum();
       if (!(sum - sum == 0)) bad = 1;  // inf or NaN (Eigen's allFinite() is not inlined)
     }
@@ -206,6 +211,7 @@ struct Stepper {
     const Index *roff = s.rev_offset_.data(), *rent = s.rev_entry_.data();
     const double *pf = s.pair_force_.data(), *pt = s.pair_nxft_.data(), *pr = s.pair_roll_.data();
     const double* po = s.pair_overlap_.data();
+    const std::uint8_t* touch = s.pair_touch_.data();
     const Vec3 g = s.opt_.gravity;
     double md = 0;
     int bad = 0;
@@ -216,7 +222,7 @@ struct Stepper {
       const double rk = r[k];
       for (Index q = roff[k]; q < roff[k + 1]; ++q) {
         const Index e = rent[q];
-        if (!(po[e] > 0)) continue;
+        if (!touch[e]) continue;
         F -= vec3(pf, e);
         if constexpr (kTangential) T -= (rk - 0.5 * po[e]) * vec3(pt, e);
         if constexpr (kRolling) T -= rk * vec3(pr, e);
