@@ -16,6 +16,12 @@ with LAMMPS's published end state. Reported:
 * peak resident memory: ``ru_maxrss`` of the child at the end of the timed loop (before the
   end-state analysis), minus the child's RSS just after ``import tsubu, numpy``, per particle
   [bytes], and the absolute peak [MiB];
+* contention: the CPU time the loop used (cores) and the CPU time other processes of the machine
+  took meanwhile (from /proc/stat); a run during which others used more than 0.25 cores is flagged
+  CONTENDED and counted in the table's "busy" column. On 2 cores a 2-thread run sharing the machine
+  with one busy process can be 10-30x slower than on a quiet machine (each OpenMP fork/join then waits
+  for the scheduler), so compare only unflagged runs; ``--wait-quiet SECONDS`` waits for a quiet
+  machine before each run;
 * the end-state summary of every run (kinetic energy, mean height, contacts, overlaps) and, where
   published (N = 1e4 after 10,000 steps), the relative difference from LAMMPS's end state.
 
@@ -25,6 +31,7 @@ Usage (from the repository root)::
     PYTHONPATH=python python benchmarks/throughput.py --sizes 1e4 --threads 1 2 --repeats 1
     PYTHONPATH=python python benchmarks/throughput.py --quick               # tiny CI smoke run
     PYTHONPATH=python python benchmarks/throughput.py --json results.json   # also write every run
+    PYTHONPATH=python python benchmarks/throughput.py --wait-quiet 300      # wait for a quiet machine before each run
 """
 
 from __future__ import annotations
@@ -58,6 +65,22 @@ def _rss_now_kib() -> int:
 def _maxrss_kib() -> int:
     r = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
     return r // 1024 if sys.platform == "darwin" else r   # bytes on macOS, KiB on Linux
+
+
+def _system_busy_s() -> float | None:
+    """CPU seconds spent so far by the whole machine (all processes, all CPUs), from /proc/stat."""
+    try:
+        with open("/proc/stat") as f:
+            fields = f.readline().split()
+        j = [int(x) for x in fields[1:9]]          # user nice system idle iowait irq softirq steal
+        return (j[0] + j[1] + j[2] + j[5] + j[6] + j[7]) / os.sysconf("SC_CLK_TCK")
+    except (OSError, ValueError, IndexError):
+        return None
+
+
+def _own_cpu_s() -> float:
+    r = resource.getrusage(resource.RUSAGE_SELF)
+    return r.ru_utime + r.ru_stime
 
 
 def machine() -> dict:
@@ -106,16 +129,23 @@ def child(args) -> None:
     rebuilds0 = sim.rebuild_count
     timed = steps - warmup
     error = None
+    load_before = os.getloadavg()[0] if hasattr(os, "getloadavg") else None
+    busy0, cpu0 = _system_busy_s(), _own_cpu_s()
     t0 = time.perf_counter()
     try:
         sim.run(steps=timed)
     except tsubu.InstabilityError as e:
         error = f"InstabilityError at step {e.step}, particle {e.particle}: {e}"
     t1 = time.perf_counter()
+    busy1, cpu1 = _system_busy_s(), _own_cpu_s()
+    loop_cpu = cpu1 - cpu0
+    # CPU time that other processes took during the loop, in cores (contention on a shared machine)
+    other = None if busy0 is None else max(0.0, (busy1 - busy0) - loop_cpu) / (t1 - t0)
     peak = _maxrss_kib()
     out = {
         "n": n, "threads": threads, "steps": steps, "warmup": warmup, "timed_steps": timed,
-        "loop_s": t1 - t0, "rate": n * timed / (t1 - t0) if error is None else None,
+        "loop_s": t1 - t0, "loop_cpu_s": loop_cpu, "cpu_use": loop_cpu / (t1 - t0),
+        "other_load": other, "loadavg_before": load_before, "rate": n * timed / (t1 - t0) if error is None else None,
         "build_s": t_build, "warmup_s": t_warm,
         "rebuilds": sim.rebuild_count, "rebuilds_timed": sim.rebuild_count - rebuilds0,
         "rss_after_import_kib": rss0, "maxrss_after_import_kib": maxrss0,
@@ -148,6 +178,27 @@ def run_child(n, threads, steps, warmup) -> dict:
             "stderr": p.stderr[-4000:]}
 
 
+CONTENTION = 0.25     # cores used by other processes during a loop above which it is flagged
+
+
+def _contended(r) -> bool:
+    return r.get("other_load") is not None and r["other_load"] > CONTENTION
+
+
+def wait_quiet(limit_s: float, sample_s: float = 3.0) -> float | None:
+    """Wait (at most limit_s) until the other processes of the machine use less than CONTENTION
+    cores over a sample_s window; returns the last load measured (cores), None if unknown."""
+    deadline = time.monotonic() + limit_s
+    while True:
+        b0, c0 = _system_busy_s(), _own_cpu_s()
+        if b0 is None:
+            return None
+        time.sleep(sample_s)
+        load = max(0.0, (_system_busy_s() - b0) - (_own_cpu_s() - c0)) / sample_s
+        if load < CONTENTION or time.monotonic() >= deadline:
+            return load
+
+
 def fmt_rate(r):
     return "-" if r is None else f"{r / 1e6:8.2f} M"
 
@@ -163,7 +214,13 @@ def print_run(r) -> None:
     print(f"{head}  {fmt_rate(r['rate'])} particle-steps/s  loop {r['loop_s']:.3f} s "
           f"({r['timed_steps']} steps + {r['warmup']} warm-up; build {r['build_s']:.2f} s, "
           f"warm-up {r['warmup_s']:.3f} s; {r['rebuilds_timed']} rebuilds in the loop)  "
-          f"peak RSS {r['peak_rss_kib'] / 1024:.1f} MiB, {r['bytes_per_particle']:.0f} B/particle", flush=True)
+          f"peak RSS {r['peak_rss_kib'] / 1024:.1f} MiB, {r['bytes_per_particle']:.0f} B/particle "
+          f"({(r['rss_after_build_kib'] - r['rss_after_import_kib']) * 1024 / r['n']:.0f} after build, "
+          f"+{(r['peak_rss_kib'] - r['rss_after_build_kib']) * 1024 / r['n']:.0f} by the end of the loop)", flush=True)
+    other = "?" if r.get("other_load") is None else f"{r['other_load']:.2f}"
+    print(f"    CPU use of the loop {r['cpu_use']:.2f} cores; other processes used {other} cores meanwhile"
+          f" (load average before: {r.get('loadavg_before') or 0:.2f})"
+          + ("  <-- CONTENDED" if _contended(r) else ""), flush=True)
     print(f"    end state after {s['steps']} steps (t = {s['time'] * 1e3:.4f} ms): "
           f"KE {s['ke_total']:.5e} J (trans {s['ke_trans']:.4e}, rot {s['ke_rot']:.4e}), "
           f"mean z {s['mean_z']:.7f} m, {s['pair_contacts']} pair / {s['wall_contacts']} wall contacts, "
@@ -187,6 +244,9 @@ def main(argv=None) -> int:
     ap.add_argument("--warmup", type=int, default=10, help="untimed first steps (default 10)")
     ap.add_argument("--quick", action="store_true",
                     help="tiny smoke run: N=500, 2000 steps, threads 1 2, 1 repeat (unless given)")
+    ap.add_argument("--wait-quiet", type=float, default=0.0, metavar="SECONDS",
+                    help="before each run, wait up to SECONDS for the other processes of the machine to use "
+                         f"less than {CONTENTION} cores (default 0: do not wait)")
     ap.add_argument("--json", metavar="FILE", help="write every run and the table to FILE")
     ap.add_argument("--child", action="store_true", help=argparse.SUPPRESS)
     ap.add_argument("--n", type=int, help=argparse.SUPPRESS)
@@ -235,6 +295,11 @@ def main(argv=None) -> int:
         for n in sizes:
             order = threads if rep % 2 == 0 else threads[::-1]
             for t in order:
+                if args.wait_quiet > 0:
+                    load = wait_quiet(args.wait_quiet)
+                    if load is not None and load >= CONTENTION:
+                        print(f"(machine still busy after {args.wait_quiet:.0f} s: other processes use "
+                              f"{load:.2f} cores; running anyway)", flush=True)
                 r = run_child(n, t, steps, args.warmup)
                 r["repeat"] = rep
                 runs.append(r)
@@ -244,7 +309,7 @@ def main(argv=None) -> int:
     print("\n=== summary (medians over repetitions; rates in million particle-steps/s) ===")
     print(f"machine: {m['cpu']}, {m['usable_cpus']} usable CPUs; tsubu openmp={tsubu.openmp}")
     hdr = (f"{'N':>9} {'steps':>6} {'thr':>3} {'runs':>4} {'median':>9} {'min':>8} {'max':>8} "
-           f"{'speed-up':>9} {'paired':>7} {'B/part':>7} {'peak MiB':>9} {'KE [J]':>11} {'mean z [m]':>11} "
+           f"{'speed-up':>9} {'paired':>7} {'busy':>4} {'B/part':>7} {'peak MiB':>9} {'KE [J]':>11} {'mean z [m]':>11} "
            f"{'pair':>6} {'wall':>5}")
     print(hdr)
     print("-" * len(hdr))
@@ -254,7 +319,8 @@ def main(argv=None) -> int:
         for t in threads:
             rs_ = [r for r in runs if r["n"] == n and r["threads"] == t]
             ok = [r for r in rs_ if r.get("rate") is not None]
-            row = {"n": n, "steps": st, "threads": t, "runs": len(ok), "failed": len(rs_) - len(ok)}
+            row = {"n": n, "steps": st, "threads": t, "runs": len(ok), "failed": len(rs_) - len(ok),
+                   "contended": sum(_contended(r) for r in ok)}
             if ok:
                 rates = [r["rate"] for r in ok]
                 row.update(median=statistics.median(rates), min=min(rates), max=max(rates),
@@ -276,11 +342,12 @@ def main(argv=None) -> int:
             sp = f"{row['speedup']:.2f}x"
             pp = "-" if row["speedup_paired"] is None else f"{row['speedup_paired']:.2f}x"
             print(f"{n:>9d} {st:>6d} {t:>3d} {len(ok):>4d} {row['median'] / 1e6:>9.2f} {row['min'] / 1e6:>8.2f} "
-                  f"{row['max'] / 1e6:>8.2f} {sp:>9} {pp:>7} {row['bytes_per_particle']:>7.0f} "
+                  f"{row['max'] / 1e6:>8.2f} {sp:>9} {pp:>7} {row['contended']:>4d} {row['bytes_per_particle']:>7.0f} "
                   f"{row['peak_mib']:>9.1f} {row['ke']:>11.4e} {row['mean_z']:>11.7f} {row['pair']:>6.0f} "
                   f"{row['wall']:>5.0f}")
     print(f"speed-up: median rate / median rate at {threads[0]} thread(s); paired: median over repetitions of "
-          f"the ratio within one repetition.\nB/part: (peak RSS - RSS after 'import tsubu, numpy') / N, "
+          f"the ratio within one repetition.\nbusy: runs during which other processes used more than "
+          f"{CONTENTION} cores (their rates are not representative; rerun on a quiet machine).\nB/part: (peak RSS - RSS after 'import tsubu, numpy') / N, "
           f"peak read at the end of the timed loop; peak MiB: absolute peak RSS of the child.")
     ref = rs.LAMMPS_END_STATE
     cmp_rows = [r for r in runs if r.get("vs_lammps")]

@@ -13,6 +13,24 @@ using namespace pybind11::literals;
 
 namespace {
 
+tsubu::ScatterDistribution to_distribution(const std::string& name) {
+  if (name == "normal") return tsubu::ScatterDistribution::Normal;
+  if (name == "uniform") return tsubu::ScatterDistribution::Uniform;
+  throw py::value_error("roughness_distribution must be 'normal' or 'uniform', got '" + name + "'");
+}
+const char* distribution_name(tsubu::ScatterDistribution d) {
+  return d == tsubu::ScatterDistribution::Normal ? "normal" : "uniform";
+}
+tsubu::ShadowRule to_shadow(const std::string& name) {
+  if (name == "reject") return tsubu::ShadowRule::Reject;
+  if (name == "weighted") return tsubu::ShadowRule::Weighted;
+  if (name == "none") return tsubu::ShadowRule::None;
+  throw py::value_error("shadow must be 'reject', 'weighted' or 'none', got '" + name + "'");
+}
+const char* shadow_name(tsubu::ShadowRule r) {
+  return r == tsubu::ShadowRule::Reject ? "reject" : r == tsubu::ShadowRule::Weighted ? "weighted" : "none";
+}
+
 using Array = py::array_t<double, py::array::c_style | py::array::forcecast>;
 using IntArray = py::array_t<int, py::array::c_style | py::array::forcecast>;
 
@@ -85,17 +103,25 @@ PYBIND11_MODULE(_core, m) {
       .def(py::init<>())
       .def("add_material",
            [](tsubu::Simulation& s, double density, double kn, double kt, double restitution,
-              double friction, double rolling_friction, double tangential_damping) {
-             tsubu::Material mat{density, kn, kt, restitution, friction, rolling_friction,
-                                 tangential_damping};
+              double friction, double rolling_friction, double tangential_damping,
+              double roughness, const std::string& distribution, const std::string& shadow) {
+             tsubu::Material mat{density,          kn,
+                                 kt,               restitution,
+                                 friction,         rolling_friction,
+                                 tangential_damping, roughness,
+                                 to_distribution(distribution), to_shadow(shadow)};
              return s.add_material(mat);
            },
            "density"_a, "kn"_a, "kt"_a, "restitution"_a, "friction"_a, "rolling_friction"_a,
-           "tangential_damping"_a)
+           "tangential_damping"_a, "roughness"_a, "roughness_distribution"_a, "shadow"_a)
       .def("set_pair_parameters",
            [](tsubu::Simulation& s, int a, int b, double kn, double kt, double restitution,
-              double friction, double rolling_friction, double tangential_damping) {
+              double friction, double rolling_friction, double tangential_damping,
+              double roughness, const std::string& distribution, const std::string& shadow) {
              tsubu::PairParams p;
+             p.roughness = roughness;
+             p.roughness_distribution = to_distribution(distribution);
+             p.shadow = to_shadow(shadow);
              p.kn = kn;
              p.kt = kt;
              p.restitution = restitution;
@@ -109,7 +135,10 @@ PYBIND11_MODULE(_core, m) {
              const tsubu::PairParams p = s.pair_parameters(a, b);
              return py::dict("kn"_a = p.kn, "kt"_a = p.kt, "restitution"_a = p.restitution,
                              "friction"_a = p.friction, "rolling_friction"_a = p.rolling_friction,
-                             "tangential_damping"_a = p.tangential_damping);
+                             "tangential_damping"_a = p.tangential_damping,
+                             "roughness"_a = p.roughness,
+                             "roughness_distribution"_a = distribution_name(p.roughness_distribution),
+                             "shadow"_a = shadow_name(p.shadow));
            })
       .def("add_spheres",
            [](tsubu::Simulation& s, const Array& x, const Array& r, const IntArray& mat,
@@ -150,6 +179,9 @@ PYBIND11_MODULE(_core, m) {
       .def_property(
           "dt", [](const tsubu::Simulation& s) { return s.options().dt; },
           [](tsubu::Simulation& s, double dt) { s.options().dt = dt; })
+      .def_property(
+          "seed", [](const tsubu::Simulation& s) { return s.options().seed; },
+          [](tsubu::Simulation& s, std::uint64_t v) { s.options().seed = v; })
       .def_property(
           "threads", [](const tsubu::Simulation& s) { return s.options().threads; },
           [](tsubu::Simulation& s, int t) { s.options().threads = t; })

@@ -294,24 +294,27 @@ void Simulation::size_entry_buffers() {
   wall_touch_.resize(k, 0);
   wall_force_.resize(3 * k, 0.0);
   const std::size_t mt = has_history_ ? m : 0, kt = has_history_ ? k : 0;
+  const std::size_t mm = (has_history_ || has_rough_) ? m : 0;
   pair_xi_.resize(3 * mt, 0.0);
-  pair_nxft_.resize(3 * mt, 0.0);
+  pair_nxft_.resize(3 * mm, 0.0);
   wall_xi_.resize(3 * kt, 0.0);
   wall_nxft_.resize(3 * kt, 0.0);
+  pair_rough_.resize(5 * (has_rough_ ? m : 0), 0.0);
+  wall_rough_.resize(5 * (has_rough_ ? k : 0), 0.0);
   const std::size_t mr = has_rolling_ ? m : 0, kr = has_rolling_ ? k : 0;
   pair_roll_.resize(3 * mr, 0.0);
   wall_roll_.resize(3 * kr, 0.0);
 }
 
 std::vector<double>* Simulation::pair_state(std::size_t k) {
-  std::vector<double>* arrays[kEntryArrays] = {&pair_xi_, &pair_overlap_, &pair_force_, &pair_nxft_,
-                                               &pair_roll_};
+  std::vector<double>* arrays[kEntryArrays] = {&pair_xi_,   &pair_overlap_, &pair_force_,
+                                               &pair_nxft_, &pair_roll_,    &pair_rough_};
   return arrays[k];
 }
 
 std::vector<double>* Simulation::wall_state(std::size_t k) {
-  std::vector<double>* arrays[kEntryArrays] = {&wall_xi_, &wall_overlap_, &wall_force_, &wall_nxft_,
-                                               &wall_roll_};
+  std::vector<double>* arrays[kEntryArrays] = {&wall_xi_,   &wall_overlap_, &wall_force_,
+                                               &wall_nxft_, &wall_roll_,    &wall_rough_};
   return arrays[k];
 }
 

@@ -7,14 +7,15 @@
 namespace tsubu {
 namespace {
 
-template <class T, class R, bool Moving>
+template <class T, class R, class Rough, bool Moving>
 void step_fn(Simulation& s, long steps) {
-  detail::Stepper<ContactLaw<T, R>, Moving>::run(s, steps);
+  detail::Stepper<ContactLaw<T, R, Rough>, Moving>::run(s, steps);
 }
 
 struct Entry {
   TangentialKind tangential;
   bool rolling;
+  bool rough;
   bool moving;
   StepFunction fn;
 };
@@ -27,15 +28,18 @@ struct Entry {
   X(Literal, TangentialLiteral, false, NoRolling)      \
   X(Literal, TangentialLiteral, true, RollingFriction)
 
-#define TSUBU_ENTRY(KIND, T, ROLL, R)                      \
-  {TangentialKind::KIND, ROLL, false, &step_fn<T, R, false>}, \
-  {TangentialKind::KIND, ROLL, true, &step_fn<T, R, true>},
+#define TSUBU_ENTRY(KIND, T, ROLL, R)                                                  \
+  {TangentialKind::KIND, ROLL, false, false, &step_fn<T, R, NoRoughness, false>},         \
+  {TangentialKind::KIND, ROLL, false, true, &step_fn<T, R, NoRoughness, true>},           \
+  {TangentialKind::KIND, ROLL, true, false, &step_fn<T, R, StochasticRoughness, false>},  \
+  {TangentialKind::KIND, ROLL, true, true, &step_fn<T, R, StochasticRoughness, true>},
 
 const Entry kRegistry[] = {TSUBU_LAWS(TSUBU_ENTRY)};
 
 const Entry& lookup(const LawKey& key) {
   for (const Entry& e : kRegistry)
-    if (e.tangential == key.tangential && e.rolling == key.rolling && e.moving == key.moving_walls)
+    if (e.tangential == key.tangential && e.rolling == key.rolling && e.rough == key.roughness &&
+        e.moving == key.moving_walls)
       return e;
   throw InvalidArgument("no compiled contact law for this combination of features");
 }
@@ -50,6 +54,7 @@ std::string law_name(const LawKey& key) {
        : key.tangential == TangentialKind::Rotate ? "+friction(rotate)"
                                                   : "+friction(literal)";
   if (key.rolling) s += "+rolling";
+  if (key.roughness) s += "+roughness";
   s += key.moving_walls ? "+moving-walls" : "";
   return s;
 }

@@ -63,6 +63,8 @@ int Simulation::add_material(const Material& m) {
           "rolling_friction must be >= 0, got " + fmt(m.rolling_friction));
   require(m.tangential_damping >= 0 && std::isfinite(m.tangential_damping),
           "tangential_damping must be >= 0, got " + fmt(m.tangential_damping));
+  require(m.roughness >= 0 && m.roughness < 0.5 * M_PI,
+          "roughness must be in [0, pi/2) radians, got " + fmt(m.roughness));
   materials_.push_back(m);
   return static_cast<int>(materials_.size()) - 1;
 }
@@ -79,6 +81,7 @@ void Simulation::set_pair_parameters(int a, int b, const PairParams& p) {
   require(p.restitution > 0 && p.restitution <= 1, "pair restitution must be in (0, 1]");
   require(p.friction >= 0 && p.rolling_friction >= 0 && p.tangential_damping >= 0,
           "pair friction coefficients must be >= 0");
+  require(p.roughness >= 0 && p.roughness < 0.5 * M_PI, "pair roughness must be in [0, pi/2)");
   PairParams q = p;
   q.finalise();
   for (std::size_t k = 0; k < overrides_key_.size(); ++k) {
@@ -269,16 +272,18 @@ double Simulation::skin() const {
 static LawKey law_key(const std::vector<Material>& materials, const PairTable& pairs,
                       const std::vector<Plane>& planes, HistoryRule rule) {
   LawKey key;
-  bool friction = false, rolling = false;
+  bool friction = false, rolling = false, rough = false;
   for (std::size_t a = 0; a < materials.size(); ++a)
     for (std::size_t b = 0; b < materials.size(); ++b) {
       const PairParams& p = pairs(a, b);
       friction |= p.friction > 0 && p.kt > 0;
       rolling |= p.rolling_friction > 0;
+      rough |= p.roughness > 0;
     }
   if (friction)
     key.tangential = rule == HistoryRule::Rotate ? TangentialKind::Rotate : TangentialKind::Literal;
   key.rolling = rolling;
+  key.roughness = rough;
   for (const Plane& p : planes) key.moving_walls |= p.moving();
   return key;
 }
@@ -306,7 +311,8 @@ void Simulation::prepare_run() {
   const LawKey key = law_key(materials_, pairs_, planes_, opt_.history);
   has_history_ = key.tangential != TangentialKind::None;
   has_rolling_ = key.rolling;
-  if (key.tangential == TangentialKind::None && !key.rolling)
+  has_rough_ = key.roughness;
+  if (key.tangential == TangentialKind::None && !key.rolling && !key.roughness)
     std::fill(t_.begin(), t_.end(), 0.0);
   if (!list_valid_) rebuild(true);
   size_entry_buffers();

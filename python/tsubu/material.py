@@ -41,6 +41,19 @@ class Material:
         Tangential dashpot as a fraction of the normal one, ``eta_t = tangential_damping *
         eta_n`` (eq. 1.11), >= 0. Default 0, as in the shared reference scene and LAMMPS's
         ``gran/hooke/history`` with ``gamma_t = 0`` (LAMMPS's NULL default is 0.5).
+    roughness : float
+        Standard deviation sigma of the roughness scatter angle, in DEGREES, in [0, 90): at
+        first touch the contact normal is tilted by a random angle dG (docs/roughness.md).
+        0 (default): smooth, and the run uses a specialisation without roughness code. Two
+        materials combine as sqrt(sigma_a^2 + sigma_b^2).
+    roughness_distribution : {"normal", "uniform"}
+        Distribution of dG: zero-mean normal with standard deviation sigma, truncated to
+        |dG| < 90 degrees (default), or uniform on [-sqrt(3) sigma, sqrt(3) sigma] (same
+        standard deviation).
+    shadow : {"reject", "weighted", "none"}
+        Shadow effect at walls (Sommerfeld & Huber 1999): "reject" (default) redraws tilts the
+        sphere could not meet (dG < -gamma in the plane of incidence); "weighted" also weights
+        the accepted tilts by sin(gamma + dG); "none" keeps every draw.
     name : str, optional
         A label for printing.
     """
@@ -52,6 +65,9 @@ class Material:
     friction: float = 0.5
     rolling_friction: float = 0.0
     tangential_damping: float = 0.0
+    roughness: float = 0.0
+    roughness_distribution: str = "normal"
+    shadow: str = "reject"
     name: str | None = field(default=None)
 
     def __post_init__(self) -> None:
@@ -67,5 +83,14 @@ class Material:
              _checks.positive("rolling_friction", self.rolling_friction, allow_zero=True))
         set_(self, "tangential_damping",
              _checks.positive("tangential_damping", self.tangential_damping, allow_zero=True))
+        set_(self, "roughness",
+             _checks.in_range("roughness", self.roughness, 0.0, 90.0, lo_open=False, hi_open=True))
+        if self.roughness_distribution not in ("normal", "uniform"):
+            raise ValueError(f"roughness_distribution must be 'normal' or 'uniform', got {self.roughness_distribution!r}")
+        if self.roughness_distribution == "uniform" and 3**0.5 * self.roughness >= 90.0:
+            raise ValueError(f"roughness with a uniform distribution must be < 90/sqrt(3) degrees "
+                             f"(its range is +-sqrt(3) sigma), got {self.roughness!r}")
+        if self.shadow not in ("reject", "weighted", "none"):
+            raise ValueError(f"shadow must be 'reject', 'weighted' or 'none', got {self.shadow!r}")
         if self.name is not None and not isinstance(self.name, str):
             raise TypeError(f"name must be a string, got {self.name!r}")

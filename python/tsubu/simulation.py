@@ -40,7 +40,8 @@ class Simulation:
         OpenMP threads. None: OpenMP's default (all cores). Results are bit-identical for any
         count.
     seed : int
-        Seed of stochastic models (reserved: the present contact laws are deterministic).
+        Seed of the roughness draws (0 <= seed < 2^64). A run is reproducible for a given seed
+        whatever the thread count; another seed gives another run.
     skin : float or None
         Neighbour-list skin [m]. None: 0.2 x the mean diameter. The list is rebuilt when a
         particle has moved more than skin/2 (or a moving wall could reach a new particle).
@@ -72,7 +73,9 @@ class Simulation:
         self.gravity = gravity
         self.dt = dt
         self.threads = threads
-        self.seed = _checks.whole("seed", seed)
+        self._core.seed = _checks.whole("seed", seed)
+        if seed >= 2**64:
+            raise ValueError(f"seed must be < 2**64, got {seed!r}")
         if skin is not None:
             self._core.skin_option = _checks.positive("skin", skin)
         if tangential_history not in ("rotate", "literal"):
@@ -107,6 +110,11 @@ class Simulation:
         self._core.dt = 0.0 if value is None else _checks.positive("dt", value)
 
     @property
+    def seed(self) -> int:
+        """Seed of the roughness draws."""
+        return self._core.seed
+
+    @property
     def threads(self) -> int:
         """OpenMP threads used by runs (0: OpenMP's default)."""
         return self._core.threads
@@ -134,7 +142,7 @@ class Simulation:
             m = material
             self._material_index[key] = self._core.add_material(
                 m.density, m.kn, m.kt, m.restitution, m.friction, m.rolling_friction,
-                m.tangential_damping)
+                m.tangential_damping, math.radians(m.roughness), m.roughness_distribution, m.shadow)
             self._materials.append(material)  # keeps id(material) valid
         return self._material_index[key]
 
@@ -142,26 +150,35 @@ class Simulation:
         """Override the mixed contact parameters between two materials (either order).
 
         Keywords: ``kn``, ``kt``, ``restitution``, ``friction``, ``rolling_friction``,
-        ``tangential_damping``, with the meaning and units of :class:`Material`; those not
-        given keep their mixed value.
+        ``tangential_damping``, ``roughness`` (degrees), ``roughness_distribution``, ``shadow``,
+        with the meaning and units of :class:`Material`; those not given keep their mixed value.
         """
         a = self._material(material_a, "material_a")
         b = self._material(material_b, "material_b")
-        p = self._core.pair_parameters(a, b)
+        p = self.pair_parameters(material_a, material_b)
         for key, value in overrides.items():
             if key not in p:
                 raise TypeError(f"set_pair got an unknown parameter {key!r}; expected one of {sorted(p)}")
             if key == "restitution":
                 p[key] = _checks.in_range(key, value, 0.0, 1.0, lo_open=True, hi_open=False)
+            elif key == "roughness":
+                p[key] = _checks.in_range(key, value, 0.0, 90.0, lo_open=False, hi_open=True)
+            elif key in ("roughness_distribution", "shadow"):
+                p[key] = value  # checked by the core, which names the accepted values
             else:
                 p[key] = _checks.positive(key, value, allow_zero=key != "kn")
         self._core.set_pair_parameters(a, b, p["kn"], p["kt"], p["restitution"], p["friction"],
-                                       p["rolling_friction"], p["tangential_damping"])
+                                       p["rolling_friction"], p["tangential_damping"],
+                                       math.radians(p["roughness"]), p["roughness_distribution"],
+                                       p["shadow"])
 
     def pair_parameters(self, material_a: Material, material_b: Material) -> dict:
-        """The contact parameters used between two materials (mixed, or as overridden)."""
-        return self._core.pair_parameters(self._material(material_a, "material_a"),
-                                          self._material(material_b, "material_b"))
+        """The contact parameters used between two materials (mixed, or as overridden);
+        roughness in degrees."""
+        p = self._core.pair_parameters(self._material(material_a, "material_a"),
+                                       self._material(material_b, "material_b"))
+        p["roughness"] = math.degrees(p["roughness"])
+        return p
 
     # ---- scene -------------------------------------------------------------------------------
     def add_spheres(self, positions, radius, material: Material, velocities=None,

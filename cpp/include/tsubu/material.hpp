@@ -7,6 +7,11 @@
 
 namespace tsubu {
 
+// Distribution of the roughness scatter angle dG (docs/roughness.md).
+enum class ScatterDistribution { Normal = 0, Uniform = 1 };
+// Shadow effect at walls: which tilts a sphere can meet (docs/roughness.md).
+enum class ShadowRule { Reject = 0, Weighted = 1, None = 2 };
+
 // One material: every sphere and every wall has one.
 struct Material {
   double density = 2500.0;          // kg/m^3 (walls: unused)
@@ -16,6 +21,9 @@ struct Material {
   double friction = 0.5;            // Coulomb coefficient mu (1.17)
   double rolling_friction = 0.0;    // mu_r of (1.20), dimensionless
   double tangential_damping = 0.0;  // eta_t / eta_n
+  double roughness = 0.0;           // standard deviation of the scatter angle dG, radians
+  ScatterDistribution roughness_distribution = ScatterDistribution::Normal;
+  ShadowRule shadow = ShadowRule::Reject;
 };
 
 // Parameters of one contact between two materials (or a material and a wall's material).
@@ -24,6 +32,9 @@ struct PairParams {
   double restitution = 1;
   double friction = 0, rolling_friction = 0;
   double tangential_damping = 0;
+  double roughness = 0;  // radians
+  ScatterDistribution roughness_distribution = ScatterDistribution::Normal;
+  ShadowRule shadow = ShadowRule::Reject;
   // (B.9) written as eta_n = damping_factor * sqrt(m_eff * kn), so a contact needs one sqrt.
   double damping_factor = 0;
 
@@ -35,7 +46,9 @@ struct PairParams {
 
 // The mixing rule (documented in docs/physics.md): stiffnesses combine as two half-springs in
 // series (harmonic mean, so equal materials keep their own value); restitution, friction,
-// rolling friction and the tangential damping ratio take the geometric mean.
+// rolling friction and the tangential damping ratio take the geometric mean; the roughness
+// scatter of two independent surfaces adds in quadrature, sigma = sqrt(sigma_a^2 + sigma_b^2),
+// and the distribution and shadow rule are those of the rougher material.
 inline PairParams mix(const Material& a, const Material& b) {
   PairParams p;
   auto harmonic = [](double x, double y) { return 2.0 * x * y / (x + y); };
@@ -45,6 +58,10 @@ inline PairParams mix(const Material& a, const Material& b) {
   p.friction = std::sqrt(a.friction * b.friction);
   p.rolling_friction = std::sqrt(a.rolling_friction * b.rolling_friction);
   p.tangential_damping = std::sqrt(a.tangential_damping * b.tangential_damping);
+  p.roughness = std::hypot(a.roughness, b.roughness);
+  const Material& rougher = b.roughness > a.roughness ? b : a;
+  p.roughness_distribution = rougher.roughness_distribution;
+  p.shadow = rougher.shadow;
   p.finalise();
   return p;
 }

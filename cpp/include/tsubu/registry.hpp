@@ -13,6 +13,7 @@ struct LawKey {
   TangentialKind tangential = TangentialKind::None;
   bool rolling = false;
   bool moving_walls = false;
+  bool roughness = false;
 };
 
 using StepFunction = void (*)(Simulation&, long steps);

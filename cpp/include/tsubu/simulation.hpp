@@ -26,6 +26,7 @@ struct Options {
   double initial_overlap = 0.05;     // refused at the first run if an overlap exceeds this x radius
   bool allow_unstable_dt = false;    // run with dt above critical_time_step()
   bool rebuild_every_step = false;   // testing aid: rebuild the neighbour list every step
+  std::uint64_t seed = 0;            // seed of the roughness draws (reproducible per contact)
 };
 
 // A plane wall a x + b y + c z + d = 0 (3.1-3.2), stored as a point and a unit normal pointing to
@@ -197,6 +198,8 @@ class Simulation {
   std::vector<double> wall_xi_, wall_force_, wall_nxft_, wall_roll_, wall_overlap_;
   // 1 while an entry's spheres touch (same as overlap > 0; a byte is 8x cheaper to stream).
   std::vector<std::uint8_t> pair_touch_, wall_touch_;
+  // Roughness state per entry: tilt vector (3), facet offset (walls), first-touch step.
+  std::vector<double> pair_rough_, wall_rough_;
   // Neighbour-list bookkeeping.
   bool list_valid_ = false;
   double list_skin_ = 0;
@@ -209,9 +212,10 @@ class Simulation {
   std::vector<Index> cell_start_, cell_of_, perm_, old_offset_, old_wall_offset_, old_index_of_;
   std::vector<Id> old_partner_id_;
   std::vector<Index> old_wall_index_;  // (previous list, during a rebuild)
-  // Per-entry state carried across rebuilds: history, overlap, force, n x F_t, rolling vector.
-  static constexpr std::size_t kEntryArrays = 5;
-  static constexpr std::size_t kEntryWidth[kEntryArrays] = {3, 1, 3, 3, 3};
+  // Per-entry state carried across rebuilds: history, overlap, force, n x F, rolling vector,
+  // roughness.
+  static constexpr std::size_t kEntryArrays = 6;
+  static constexpr std::size_t kEntryWidth[kEntryArrays] = {3, 1, 3, 3, 3, 5};
   std::vector<double>* pair_state(std::size_t k);
   std::vector<double>* wall_state(std::size_t k);
   std::array<std::vector<double>, kEntryArrays> old_pair_state_, old_wall_state_;
@@ -227,6 +231,7 @@ class Simulation {
   double dt_ = 0;
   bool has_history_ = false;  // the law of the current run keeps a tangential displacement
   bool has_rolling_ = false;
+  bool has_rough_ = false;
 
   // The rebuild (neighbor.cpp).
   void rebuild(bool keep_history);

@@ -11,6 +11,7 @@
 #include <cmath>
 
 #include "contact/law.hpp"
+#include "contact/roughness.hpp"
 #include "simulation.hpp"
 
 namespace tsubu::detail {
@@ -22,6 +23,8 @@ struct Stepper {
   static constexpr bool kTorque = Law::has_torque;
   static constexpr bool kTangential = Law::tangential::enabled;
   static constexpr bool kRolling = Law::rolling::enabled;
+  static constexpr bool kRough = Law::roughness::enabled;
+  static constexpr std::size_t kRoughWidth = 5;  // tilt vector (3), facet offset h, first step
 
   static void run(Simulation& s, long steps) {
     const double dt = s.dt_;
@@ -62,6 +65,61 @@ struct Stepper {
     return res;
   }
 
+  // A rough contact older than two contact durations is an enduring contact, not an impact: its
+  // tilt is dropped (docs/roughness.md), so spheres at rest do not roll down virtual facets.
+  static bool enduring(const PairParams& p, double m, const double* st, std::uint64_t step,
+                       double dt) {
+    if (st[0] == 0 && st[1] == 0 && st[2] == 0) return false;
+    const double eta = HookeNormal::damping(p, m);
+    const double alpha = std::sqrt(p.kn / m - eta * eta / (4 * m * m));  // (B.3)
+    return (double(step) - st[4]) * dt > 2.0 * M_PI / alpha;
+  }
+
+  // Rough pair: the tilt is drawn at first touch; the centre distance keeps giving the overlap
+  // and the tilted normal n' gives the direction of the normal force.
+  static Vec3 rough_pair(const PairParams& p, const Vec3& n, const Vec3& vrel, double m,
+                         bool active, double* st, const ContactStream& stream, double dt) {
+    if (!active) {
+      const Vec3 tilt = draw_tilt(p, n, vrel, false, stream);
+      std::copy(tilt.data(), tilt.data() + 3, st);
+      st[4] = double(stream.step);
+    } else if (enduring(p, m, st, stream.step, dt)) {
+      std::fill(st, st + 3, 0.0);
+    }
+    return tilted_normal(n, st);
+  }
+
+  // Rough wall: the sphere meets a virtual plane (a facet) tilted by dG, fixed to the wall at
+  // offset h (n'.(y - p) = h), placed at first touch so that the sphere penetrates it by at
+  // most one step of approach. On entry n is the wall normal and delta the real overlap; on
+  // exit they are the facet's normal and overlap (<= 0: no contact).
+  static void rough_wall(const PairParams& p, const Plane& P, const Vec3& x, double r,
+                         const Vec3& vrel, double m, bool active, double* st,
+                         const ContactStream& stream, double dt, Vec3& n, double& delta) {
+    if (!active) {
+      // A facet contact starts when the sphere touches the real wall while approaching it.
+      if (delta <= 0 || vrel.dot(n) >= 0) {
+        delta = 0;
+        return;
+      }
+      const Vec3 tilt = draw_tilt(p, n, vrel, true, stream);
+      std::copy(tilt.data(), tilt.data() + 3, st);
+      st[4] = double(stream.step);
+      const Vec3 np = tilted_normal(n, st);
+      const double start = std::min(delta, -vrel.dot(np) * dt);
+      st[3] = np.dot(x - P.point) - r + start;
+    } else if (enduring(p, m, st, stream.step, dt)) {
+      // Settle onto a facet parallel to the wall, with the overlap (and energy) unchanged.
+      const Vec3 old = tilted_normal(n, st);
+      const double overlap = r - (old.dot(x - P.point) - st[3]);
+      std::fill(st, st + 3, 0.0);
+      st[3] = n.dot(x - P.point) - r + overlap;
+    }
+    const Vec3 np = tilted_normal(n, st);
+    delta = r - (np.dot(x - P.point) - st[3]);
+    n = np;
+  }
+
   // Pass 1, over owners: every pair entry (owned by the lower id) and every near-wall entry is
   // evaluated; each entry's result is stored for its partner, and the owner's own share is
   // summed in registers (partners in ascending id order, then walls) into f_, t_. Each entry
@@ -80,6 +138,9 @@ struct Stepper {
     double *wnxft = s.wall_nxft_.data(), *wroll = s.wall_roll_.data();
     double* woverlap = s.wall_overlap_.data();
     std::uint8_t *touch = s.pair_touch_.data(), *wtouch = s.wall_touch_.data();
+    double *rough = s.pair_rough_.data(), *wrough = s.wall_rough_.data();
+    const Id* ids = s.id_.data();
+    const std::uint64_t step = std::uint64_t(s.step_), seed = s.opt_.seed;
     double *f = s.f_.data(), *t = s.t_.data(), *diss = s.dissipated_.data();
     const Plane* planes = s.planes_.data();
     const PairTable& table = s.pairs_;
@@ -107,31 +168,52 @@ struct Stepper {
         ContactGeometry g;
         const double dist = std::sqrt(dist2);
         g.delta = rs - dist;
-        g.n = d / dist;
+        const Vec3 n = d / dist;
+        g.n = n;
         worst = std::max(worst, g.delta / std::min(ri, r[j]));
         g.m_eff = m[i] * m[j] / (m[i] + m[j]);
+        const PairParams& params = table(mat[i], mat[j]);
         const Vec3 vrel = vec3(v, i) - vec3(v, j);
-        g.vn = vrel.dot(g.n);
         if constexpr (kTorque) {
           g.ci = ri - 0.5 * g.delta;
           g.cj = r[j] - 0.5 * g.delta;
         }
-        if constexpr (kTangential)
-          g.vt = vrel - g.vn * g.n - (g.ci * vec3(w, i) + g.cj * vec3(w, j)).cross(g.n);
+        bool tilted = false;
+        if constexpr (kRough) {
+          if (params.roughness > 0) {
+            const ContactStream stream{seed, std::uint64_t(ids[i]), std::uint64_t(ids[j]), step};
+            g.n = rough_pair(params, n, vrel, g.m_eff, touch[e], rough + kRoughWidth * e, stream, dt);
+            tilted = true;
+          }
+        }
+        if (!tilted) {
+          g.vn = vrel.dot(n);
+          if constexpr (kTangential)
+            g.vt = vrel - g.vn * n - (g.ci * vec3(w, i) + g.cj * vec3(w, j)).cross(n);
+        } else {
+          // Contact points on the line of centres; normal and tangential parts relative to n'.
+          const Vec3 vcp = vrel - (g.ci * vec3(w, i) + g.cj * vec3(w, j)).cross(n);
+          g.vn = vcp.dot(g.n);
+          if constexpr (kTangential) g.vt = vcp - g.vn * g.n;
+        }
         if constexpr (kRolling) {
           g.w_rel = vec3(w, i) - vec3(w, j);
           g.ri = ri;
           g.rj = r[j];
           g.spin_mobility = ri * inv_i[i] + r[j] * inv_i[j];
         }
-        ContactResult res = evaluate(g, table(mat[i], mat[j]), dt, xi + 3 * e);
+        ContactResult res = evaluate(g, params, dt, xi + 3 * e);
         touch[e] = 1;
         overlap[e] = g.delta;
         vec3(force, e) = res.force;
         F += res.force;
-        if constexpr (kTangential) {
-          vec3(nxft, e) = res.n_cross_ft;
-          T -= g.ci * res.n_cross_ft;  // (1.19) with the contact-point lever c_i
+        if constexpr (kTangential || kRough) {
+          // (1.19) with the contact-point lever c_i along the line of centres; with a tilted
+          // normal the whole force has a moment about the centres (n x F), which keeps
+          // angular momentum exact.
+          const Vec3 nxf = tilted ? Vec3(n.cross(res.force)) : res.n_cross_ft;
+          vec3(nxft, e) = nxf;
+          T -= g.ci * nxf;
         }
         if constexpr (kRolling) {
           vec3(roll, e) = res.roll;
@@ -142,17 +224,30 @@ struct Stepper {
       }
       for (Index e = woff[i]; e < woff[i + 1]; ++e) {
         const Plane& P = planes[wall[e]];
-        const double delta = ri - P.normal.dot(xi_pos - P.point);  // (3.1), signed: a half-space
+        const PairParams& params = table(mat[i], P.material);
+        double delta = ri - P.normal.dot(xi_pos - P.point);  // (3.1), signed: a half-space
+        Vec3 n = P.normal;
+        if constexpr (kRough) {
+          if (params.roughness > 0) {
+            Vec3 vw = vec3(v, i);
+            if constexpr (MovingWalls)
+              vw -= P.velocity + P.angular_velocity.cross(xi_pos - ri * n - P.point);
+            const ContactStream stream{seed, std::uint64_t(ids[i]),
+                                       ContactStream::kWallTag + std::uint64_t(wall[e]), step};
+            rough_wall(params, P, xi_pos, ri, vw, m[i], wtouch[e], wrough + kRoughWidth * e,
+                       stream, dt, n, delta);
+          }
+        }
         if (delta <= 0) {
           if (wtouch[e]) {
             wtouch[e] = 0;
             woverlap[e] = 0;
-            if constexpr (kHistory) release(table(mat[i], P.material), wxi + 3 * e, lost);
+            if constexpr (kHistory) release(params, wxi + 3 * e, lost);
           }
           continue;
         }
         ContactGeometry g;
-        g.n = P.normal;
+        g.n = n;
         g.delta = delta;
         worst = std::max(worst, delta / ri);
         g.m_eff = m[i];
@@ -172,14 +267,14 @@ struct Stepper {
           g.rj = 0;
           g.spin_mobility = ri * inv_i[i];
         }
-        ContactResult res = evaluate(g, table(mat[i], P.material), dt, wxi + 3 * e);
+        ContactResult res = evaluate(g, params, dt, wxi + 3 * e);
         wtouch[e] = 1;
         woverlap[e] = delta;
         vec3(wforce, e) = res.force;
         F += res.force;
         if constexpr (kTangential) {
           vec3(wnxft, e) = res.n_cross_ft;
-          T -= g.ci * res.n_cross_ft;
+          T -= g.ci * res.n_cross_ft;  // lever along the (facet) normal: the wall's surface
         }
         if constexpr (kRolling) {
           vec3(wroll, e) = res.roll;
@@ -224,7 +319,7 @@ struct Stepper {
         const Index e = rent[q];
         if (!touch[e]) continue;
         F -= vec3(pf, e);
-        if constexpr (kTangential) T -= (rk - 0.5 * po[e]) * vec3(pt, e);
+        if constexpr (kTangential || kRough) T -= (rk - 0.5 * po[e]) * vec3(pt, e);
         if constexpr (kRolling) T -= rk * vec3(pr, e);
       }
       vec3(f, k) = F;

@@ -10,13 +10,24 @@
 
 namespace tsubu {
 
-template <class Tangential, class Rolling>
+// Smooth surfaces: the contact normal is the line of centres (or the wall's normal).
+struct NoRoughness {
+  static constexpr bool enabled = false;
+};
+// Stochastic roughness (roughness.hpp): the normal is tilted by a random angle at first touch.
+struct StochasticRoughness {
+  static constexpr bool enabled = true;
+};
+
+template <class Tangential, class Rolling, class Roughness = NoRoughness>
 struct ContactLaw {
   using tangential = Tangential;
   using rolling = Rolling;
+  using roughness = Roughness;
   using History = typename Tangential::History;
   static constexpr bool has_history = Tangential::enabled;
-  static constexpr bool has_torque = Tangential::enabled || Rolling::enabled;
+  // A tilted normal gives torque even without friction.
+  static constexpr bool has_torque = Tangential::enabled || Rolling::enabled || Roughness::enabled;
 
   static void evaluate(const ContactGeometry& g, const PairParams& p, double dt, History& h,
                        ContactResult& out) {
