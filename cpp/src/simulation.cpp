@@ -128,6 +128,12 @@ Id Simulation::add_spheres(std::size_t n, const double* positions, const double*
               "angular velocity of sphere " + std::to_string(k) + " is not finite");
   }
   const Id first = static_cast<Id>(n_);
+  // Exact capacity: a vector grown by doubling would keep up to 2x the memory per particle.
+  for (auto* a : {&x_, &v_, &w_, &f_, &t_, &x_ref_}) a->reserve(3 * (n_ + n));
+  for (auto* a : {&radius_, &mass_, &inv_mass_, &inv_inertia_, &dissipated_}) a->reserve(n_ + n);
+  material_.reserve(n_ + n);
+  id_.reserve(n_ + n);
+  index_of_.reserve(n_ + n);
   for (std::size_t k = 0; k < n; ++k) {
     const double r = radii[k];
     const double m = materials_[materials[k]].density * 4.0 / 3.0 * M_PI * r * r * r;
