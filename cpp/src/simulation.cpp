@@ -128,12 +128,16 @@ Id Simulation::add_spheres(std::size_t n, const double* positions, const double*
               "angular velocity of sphere " + std::to_string(k) + " is not finite");
   }
   const Id first = static_cast<Id>(n_);
-  // Exact capacity: a vector grown by doubling would keep up to 2x the memory per particle.
-  for (auto* a : {&x_, &v_, &w_, &f_, &t_, &x_ref_}) a->reserve(3 * (n_ + n));
-  for (auto* a : {&radius_, &mass_, &inv_mass_, &inv_inertia_, &dissipated_}) a->reserve(n_ + n);
-  material_.reserve(n_ + n);
-  id_.reserve(n_ + n);
-  index_of_.reserve(n_ + n);
+  // A large batch gets exact capacity (doubling would keep up to 2x the memory per particle);
+  // many small ones grow geometrically.
+  auto grow = [](auto& a, std::size_t need) {
+    if (need > a.capacity()) a.reserve(std::max(need, a.capacity() + a.capacity() / 2));
+  };
+  for (auto* a : {&x_, &v_, &w_, &f_, &t_, &x_ref_}) grow(*a, 3 * (n_ + n));
+  for (auto* a : {&radius_, &mass_, &inv_mass_, &inv_inertia_, &dissipated_}) grow(*a, n_ + n);
+  grow(material_, n_ + n);
+  grow(id_, n_ + n);
+  grow(index_of_, n_ + n);
   for (std::size_t k = 0; k < n; ++k) {
     const double r = radii[k];
     const double m = materials_[materials[k]].density * 4.0 / 3.0 * M_PI * r * r * r;
