@@ -131,19 +131,21 @@ def initial_state(n: int, start: int = 0, stop: int | None = None) -> tuple[np.n
 
 
 # ---------------------------------------------------------------- the tsubu scene
-def material(friction: float = MU, rolling_friction: float = 0.0):
-    """The scene's material (spheres and walls share it)."""
+def material(friction: float = MU, rolling_friction: float = 0.0, roughness: float = 0.0):
+    """The scene's material (spheres and walls share it; ``roughness`` in degrees)."""
     import tsubu
     return tsubu.Material(density=RHO, kn=KN, kt=KT, restitution=E_REST, friction=friction,
                           rolling_friction=rolling_friction, tangential_damping=0.0,
-                          name="reference glass")
+                          roughness=roughness, name="reference glass")
 
 
-def build(n, threads=None, friction: float = MU, rolling_friction: float = 0.0, chunk: int = 1 << 16):
+def build(n, threads=None, friction: float = MU, rolling_friction: float = 0.0, chunk: int = 1 << 16,
+          roughness: float = 0.0):
     """The reference scene with n particles as a ``tsubu.Simulation`` (not yet run).
 
     ``threads``: OpenMP threads (None: OpenMP's default). ``friction`` / ``rolling_friction``:
-    override mu / mu_r of every contact (the reference scene: 0.5 / 0). Spheres are added in
+    override mu / mu_r of every contact (the reference scene: 0.5 / 0). ``roughness`` (degrees):
+    make the five walls rough (the reference scene: 0, smooth). Spheres are added in
     chunks of ``chunk`` so that the Python-side temporaries stay small next to the engine's
     own storage (this matters when peak memory is measured). The scene's dimensions are kept as
     ``sim.reference_scene`` (a dict: n, shape, lx, ly).
@@ -153,16 +155,17 @@ def build(n, threads=None, friction: float = MU, rolling_friction: float = 0.0, 
     nx, ny, nz = shape(n)
     lx, ly = box(n)
     mat = material(friction, rolling_friction)
+    wall = material(friction, rolling_friction, roughness) if roughness > 0 else mat
     sim = tsubu.Simulation(gravity=(0.0, 0.0, -G), dt=DT, threads=threads, skin=SKIN)
     for start in range(0, n, chunk):
         x, v = initial_state(n, start, start + chunk)
         sim.add_spheres(x, R, mat, velocities=v)
         del x, v
-    sim.add_plane(point=(0.0, 0.0, 0.0), normal=(0.0, 0.0, 1.0), material=mat)   # floor
-    sim.add_plane(point=(0.0, 0.0, 0.0), normal=(1.0, 0.0, 0.0), material=mat)   # x = 0
-    sim.add_plane(point=(lx, 0.0, 0.0), normal=(-1.0, 0.0, 0.0), material=mat)   # x = Lx
-    sim.add_plane(point=(0.0, 0.0, 0.0), normal=(0.0, 1.0, 0.0), material=mat)   # y = 0
-    sim.add_plane(point=(0.0, ly, 0.0), normal=(0.0, -1.0, 0.0), material=mat)   # y = Ly
+    sim.add_plane(point=(0.0, 0.0, 0.0), normal=(0.0, 0.0, 1.0), material=wall)   # floor
+    sim.add_plane(point=(0.0, 0.0, 0.0), normal=(1.0, 0.0, 0.0), material=wall)   # x = 0
+    sim.add_plane(point=(lx, 0.0, 0.0), normal=(-1.0, 0.0, 0.0), material=wall)   # x = Lx
+    sim.add_plane(point=(0.0, 0.0, 0.0), normal=(0.0, 1.0, 0.0), material=wall)   # y = 0
+    sim.add_plane(point=(0.0, ly, 0.0), normal=(0.0, -1.0, 0.0), material=wall)   # y = Ly
     sim.reference_scene = {"n": n, "shape": (nx, ny, nz), "lx": lx, "ly": ly, "walls": 5}
     return sim
 

@@ -120,7 +120,7 @@ def child(args) -> None:
     steps = args.steps if args.steps is not None else rs.standard_steps(n)
     warmup = min(args.warmup, max(steps - 1, 0))
     t_build = time.perf_counter()
-    sim = rs.build(n, threads=threads)
+    sim = rs.build(n, threads=threads, roughness=args.roughness)
     t_build = time.perf_counter() - t_build
     rss_built = _rss_now_kib()
     t_warm = time.perf_counter()
@@ -161,9 +161,9 @@ def child(args) -> None:
 
 
 # ---------------------------------------------------------------- parent
-def run_child(n, threads, steps, warmup) -> dict:
+def run_child(n, threads, steps, warmup, roughness=0.0) -> dict:
     cmd = [sys.executable, os.path.abspath(__file__), "--child", "--n", str(n), "--threads", str(threads),
-           "--warmup", str(warmup)]
+           "--warmup", str(warmup), "--roughness", str(roughness)]
     if steps is not None:
         cmd += ["--steps", str(steps)]
     p = subprocess.run(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
@@ -248,6 +248,9 @@ def main(argv=None) -> int:
                     help="before each run, wait up to SECONDS for the other processes of the machine to use "
                          f"less than {CONTENTION} cores (default 0: do not wait)")
     ap.add_argument("--json", metavar="FILE", help="write every run and the table to FILE")
+    ap.add_argument("--roughness", type=float, default=0.0, metavar="DEGREES",
+                    help="make the walls rough with this scatter sigma (default 0: the smooth "
+                         "reference scene); compares the rough specialisation's cost")
     ap.add_argument("--child", action="store_true", help=argparse.SUPPRESS)
     ap.add_argument("--n", type=int, help=argparse.SUPPRESS)
     args = ap.parse_args(argv)
@@ -300,7 +303,7 @@ def main(argv=None) -> int:
                     if load is not None and load >= CONTENTION:
                         print(f"(machine still busy after {args.wait_quiet:.0f} s: other processes use "
                               f"{load:.2f} cores; running anyway)", flush=True)
-                r = run_child(n, t, steps, args.warmup)
+                r = run_child(n, t, steps, args.warmup, roughness=args.roughness)
                 r["repeat"] = rep
                 runs.append(r)
                 print_run(r)

@@ -51,8 +51,9 @@ def box_scene(threads: int, rolling_friction: float = 0.0, history: str = "rotat
                          rolling_friction=rolling_friction)
     wall = tsubu.Material(density=2500.0, kn=2e3, restitution=0.7, friction=0.3,
                           rolling_friction=rolling_friction)
+    # parallel_min=0: really use the threads (small scenes otherwise run on one).
     sim = tsubu.Simulation(gravity=(0.0, 0.0, -100.0), dt=DT, threads=threads,
-                           tangential_history=history, skin=skin)
+                           tangential_history=history, skin=skin, parallel_min=0)
     sim.add_spheres(pos, radii, mat, velocities=rng.normal(0.0, 0.1, (len(pos), 3)),
                     angular_velocities=rng.normal(0.0, 50.0, (len(pos), 3)))
     sim.add_plane(point=(0.5 * SIDE, 0.5 * SIDE, 0.0), normal=(0.0, 0.0, 1.0), material=wall,

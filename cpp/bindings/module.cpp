@@ -180,6 +180,9 @@ PYBIND11_MODULE(_core, m) {
           "dt", [](const tsubu::Simulation& s) { return s.options().dt; },
           [](tsubu::Simulation& s, double dt) { s.options().dt = dt; })
       .def_property(
+          "parallel_min", [](const tsubu::Simulation& s) { return s.options().parallel_min; },
+          [](tsubu::Simulation& s, int v) { s.options().parallel_min = v; })
+      .def_property(
           "seed", [](const tsubu::Simulation& s) { return s.options().seed; },
           [](tsubu::Simulation& s, std::uint64_t v) { s.options().seed = v; })
       .def_property(

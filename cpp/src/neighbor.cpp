@@ -164,7 +164,7 @@ void Simulation::rebuild(bool keep_history) {
         }
   };
   const Index ni = static_cast<Index>(n);
-#pragma omp parallel for schedule(static) num_threads(threads())
+#pragma omp parallel for schedule(static) num_threads(threads()) if (ni >= opt_.parallel_min)
   for (Index i = 0; i < ni; ++i) {
     Index count = 0;
     for_each_neighbor(i, [&](Index) { ++count; });
@@ -174,7 +174,7 @@ void Simulation::rebuild(bool keep_history) {
   const std::size_t m = static_cast<std::size_t>(pair_offset_[n]);
   pair_partner_.resize(m);
   pair_owner_.resize(m);
-#pragma omp parallel for schedule(static) num_threads(threads())
+#pragma omp parallel for schedule(static) num_threads(threads()) if (ni >= opt_.parallel_min)
   for (Index i = 0; i < ni; ++i) {
     Index e = pair_offset_[i];
     for_each_neighbor(i, [&](Index j) {
@@ -195,7 +195,7 @@ void Simulation::rebuild(bool keep_history) {
     fill.assign(rev_offset_.begin(), rev_offset_.end() - 1);
     for (std::size_t e = 0; e < m; ++e) rev_entry_[fill[pair_partner_[e]]++] = static_cast<Index>(e);
   }
-#pragma omp parallel for schedule(static) num_threads(threads())
+#pragma omp parallel for schedule(static) num_threads(threads()) if (ni >= opt_.parallel_min)
   for (Index i = 0; i < ni; ++i)
     insertion_sort(rev_entry_.data() + rev_offset_[i], rev_entry_.data() + rev_offset_[i + 1],
                    [&](Index e) { return id_[pair_owner_[e]]; });
@@ -227,7 +227,7 @@ void Simulation::rebuild(bool keep_history) {
   if (transfer) {
     pair_from_old_.assign(pair_partner_.size(), -1);
     wall_from_old_.assign(wall_index_.size(), -1);
-#pragma omp parallel for schedule(static) num_threads(threads())
+#pragma omp parallel for schedule(static) num_threads(threads()) if (ni >= opt_.parallel_min)
     for (Index i = 0; i < ni; ++i) {
       const Id a = id_[i];
       if (a >= static_cast<Id>(old_index_of_.size())) continue;  // added since

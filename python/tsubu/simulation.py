@@ -39,6 +39,11 @@ class Simulation:
     threads : int or None
         OpenMP threads. None: OpenMP's default (all cores). Results are bit-identical for any
         count.
+    parallel_min : int
+        Scenes with fewer spheres than this run on one thread, whatever ``threads`` says: there
+        a parallel region costs more than it saves (and on a machine whose cores are busy with
+        other work, waiting at its barriers can cost far more). Default 2048; 0 always uses
+        ``threads``.
     seed : int
         Seed of the roughness draws (0 <= seed < 2^64). A run is reproducible for a given seed
         whatever the thread count; another seed gives another run.
@@ -66,13 +71,14 @@ class Simulation:
     def __init__(self, gravity=(0.0, 0.0, -9.81), dt=None, threads=None, seed: int = 0,
                  skin=None, tangential_history: str = "rotate", max_overlap: float = 0.5,
                  initial_overlap: float = 0.05, allow_unstable_dt: bool = False,
-                 rebuild_every_step: bool = False):
+                 rebuild_every_step: bool = False, parallel_min: int = 2048):
         self._core = _core.Simulation()
         self._materials: list[Material] = []
         self._material_index: dict[int, int] = {}
         self.gravity = gravity
         self.dt = dt
         self.threads = threads
+        self._core.parallel_min = _checks.whole("parallel_min", parallel_min)
         self._core.seed = _checks.whole("seed", seed)
         if seed >= 2**64:
             raise ValueError(f"seed must be < 2**64, got {seed!r}")

@@ -70,6 +70,7 @@ void test_history_cleared_on_separation() {
 Simulation cloud(int threads) {
   Options o;
   o.threads = threads;
+  o.parallel_min = 0;  // really use the threads on this small scene
   o.gravity = Vec3(0, 0, -9.81);
   Simulation s(o);
   const int g = s.add_material(glass(0.7, 0.4));

@@ -20,6 +20,9 @@ struct Options {
   Vec3 gravity = Vec3(0, 0, -9.81);  // m/s^2
   double dt = 0;                     // s; 0: default_time_step()
   int threads = 0;                   // 0: OpenMP's default
+  // Below this many spheres the loops run on one thread: a parallel region's start and
+  // barrier cost more than the work (results are bit-identical either way).
+  int parallel_min = 2048;
   double skin = 0;                   // m; 0: 0.2 x the mean diameter
   HistoryRule history = HistoryRule::Rotate;
   double max_overlap = 0.5;          // instability if overlap > max_overlap x the smaller radius

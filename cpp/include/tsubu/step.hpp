@@ -146,7 +146,7 @@ struct Stepper {
     const PairTable& table = s.pairs_;
     double worst = 0;
     int bad = 0;
-#pragma omp parallel for schedule(static) num_threads(s.threads()) reduction(max : worst, bad)
+#pragma omp parallel for schedule(static) num_threads(s.threads()) if (n >= s.opt_.parallel_min) reduction(max : worst, bad)
     for (Index i = 0; i < n; ++i) {
       const Vec3 xi_pos = vec3(x, i);
       const double ri = r[i];
@@ -310,7 +310,7 @@ struct Stepper {
     const Vec3 g = s.opt_.gravity;
     double md = 0;
     int bad = 0;
-#pragma omp parallel for schedule(static) num_threads(s.threads()) reduction(max : md, bad)
+#pragma omp parallel for schedule(static) num_threads(s.threads()) if (n >= s.opt_.parallel_min) reduction(max : md, bad)
     for (Index k = 0; k < n; ++k) {
       Vec3 F = vec3(f, k);
       Vec3 T = kTorque ? Vec3(vec3(t, k)) : Vec3::Zero();
