@@ -299,8 +299,8 @@ void Simulation::size_entry_buffers() {
   pair_nxft_.resize(3 * mm, 0.0);
   wall_xi_.resize(3 * kt, 0.0);
   wall_nxft_.resize(3 * kt, 0.0);
-  pair_rough_.resize(5 * (has_rough_ ? m : 0), 0.0);
-  wall_rough_.resize(5 * (has_rough_ ? k : 0), 0.0);
+  pair_rough_.resize(6 * (has_rough_ ? m : 0), 0.0);
+  wall_rough_.resize(6 * (has_rough_ ? k : 0), 0.0);
   const std::size_t mr = has_rolling_ ? m : 0, kr = has_rolling_ ? k : 0;
   pair_roll_.resize(3 * mr, 0.0);
   wall_roll_.resize(3 * kr, 0.0);

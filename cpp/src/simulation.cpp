@@ -82,6 +82,10 @@ void Simulation::set_pair_parameters(int a, int b, const PairParams& p) {
   require(p.friction >= 0 && p.rolling_friction >= 0 && p.tangential_damping >= 0,
           "pair friction coefficients must be >= 0");
   require(p.roughness >= 0 && p.roughness < 0.5 * M_PI, "pair roughness must be in [0, pi/2)");
+  require(p.roughness_distribution != ScatterDistribution::Uniform ||
+              std::sqrt(3.0) * p.roughness < 0.5 * M_PI,
+          "pair roughness with a uniform distribution must be < 90/sqrt(3) degrees, got " +
+              fmt(p.roughness * 180 / M_PI) + " degrees");
   PairParams q = p;
   q.finalise();
   for (std::size_t k = 0; k < overrides_key_.size(); ++k) {
@@ -107,8 +111,18 @@ void Simulation::mix_pairs() {
   const std::size_t nm = materials_.size();
   pairs_.resize(nm);
   for (std::size_t a = 0; a < nm; ++a)
-    for (std::size_t b = a; b < nm; ++b)
-      pairs_.set(a, b, pair_parameters(static_cast<int>(a), static_cast<int>(b)));
+    for (std::size_t b = a; b < nm; ++b) {
+      const PairParams p = pair_parameters(static_cast<int>(a), static_cast<int>(b));
+      const double limit = p.roughness_distribution == ScatterDistribution::Uniform
+                               ? 0.5 * M_PI / std::sqrt(3.0)
+                               : 0.5 * M_PI;
+      require(p.roughness < limit,
+              "materials " + std::to_string(a) + " and " + std::to_string(b) +
+                  " mix to a roughness of " + fmt(p.roughness * 180 / M_PI) +
+                  " degrees, beyond the " + fmt(limit * 180 / M_PI) +
+                  " degrees its distribution allows; set the pair's roughness with set_pair");
+      pairs_.set(a, b, p);
+    }
 }
 
 // ---- particles and walls ----------------------------------------------------------------------

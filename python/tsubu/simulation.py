@@ -173,6 +173,9 @@ class Simulation:
                 p[key] = value  # checked by the core, which names the accepted values
             else:
                 p[key] = _checks.positive(key, value, allow_zero=key != "kn")
+        if p["roughness_distribution"] == "uniform" and 3**0.5 * p["roughness"] >= 90.0:
+            raise ValueError(f"roughness with a uniform distribution must be < 90/sqrt(3) degrees "
+                             f"(its range is +-sqrt(3) sigma), got {p['roughness']!r}")
         self._core.set_pair_parameters(a, b, p["kn"], p["kt"], p["restitution"], p["friction"],
                                        p["rolling_friction"], p["tangential_damping"],
                                        math.radians(p["roughness"]), p["roughness_distribution"],

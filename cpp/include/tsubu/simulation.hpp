@@ -201,7 +201,8 @@ class Simulation {
   std::vector<double> wall_xi_, wall_force_, wall_nxft_, wall_roll_, wall_overlap_;
   // 1 while an entry's spheres touch (same as overlap > 0; a byte is 8x cheaper to stream).
   std::vector<std::uint8_t> pair_touch_, wall_touch_;
-  // Roughness state per entry: tilt vector (3), facet offset (walls), first-touch step.
+  // Roughness state per entry (6 values, step.hpp): tilt or tilted normal, facet offset,
+  // first-touch step, spin term.
   std::vector<double> pair_rough_, wall_rough_;
   // Neighbour-list bookkeeping.
   bool list_valid_ = false;
@@ -218,7 +219,7 @@ class Simulation {
   // Per-entry state carried across rebuilds: history, overlap, force, n x F, rolling vector,
   // roughness.
   static constexpr std::size_t kEntryArrays = 6;
-  static constexpr std::size_t kEntryWidth[kEntryArrays] = {3, 1, 3, 3, 3, 5};
+  static constexpr std::size_t kEntryWidth[kEntryArrays] = {3, 1, 3, 3, 3, 6};
   std::vector<double>* pair_state(std::size_t k);
   std::vector<double>* wall_state(std::size_t k);
   std::array<std::vector<double>, kEntryArrays> old_pair_state_, old_wall_state_;

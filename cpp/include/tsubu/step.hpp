@@ -24,7 +24,9 @@ struct Stepper {
   static constexpr bool kTangential = Law::tangential::enabled;
   static constexpr bool kRolling = Law::rolling::enabled;
   static constexpr bool kRough = Law::roughness::enabled;
-  static constexpr std::size_t kRoughWidth = 5;  // tilt vector (3), facet offset h, first step
+  // Roughness state per entry: walls: tilt vector (3), facet offset h, first-touch step;
+  // pairs: tilted normal n' (3; zero once enduring), facet offset H, first-touch step, spin term S.
+  static constexpr std::size_t kRoughWidth = 6;
 
   static void run(Simulation& s, long steps) {
     const double dt = s.dt_;
@@ -75,18 +77,43 @@ struct Stepper {
     return (double(step) - st[4]) * dt > 2.0 * M_PI / alpha;
   }
 
-  // Rough pair: the tilt is drawn at first touch; the centre distance keeps giving the overlap
-  // and the tilted normal n' gives the direction of the normal force.
-  static Vec3 rough_pair(const PairParams& p, const Vec3& n, const Vec3& vrel, double m,
-                         bool active, double* st, const ContactStream& stream, double dt) {
+  // Rough pair (docs/roughness.md): at first touch a tilted normal n' is drawn and frozen for
+  // the impact, and the spheres meet a virtual facet across it: the overlap is measured along
+  // n', delta' = H - n'.x_ij + S, where S integrates the spin part of the contact points'
+  // approach, so that d(delta')/dt = -n'.v_cp and the normal spring keeps its energy. An
+  // enduring contact (older than 2 t_c) turns back to the line of centres with the overlap
+  // kept: delta' = delta + H. Returns n' (n once enduring) and sets delta' (<= 0: no contact).
+  static Vec3 rough_pair(const PairParams& p, const Vec3& n, const Vec3& xij, double delta,
+                         const Vec3& vrel, const Vec3& spin, double m, bool active, double* st,
+                         const ContactStream& stream, double dt, double& overlap) {
     if (!active) {
       const Vec3 tilt = draw_tilt(p, n, vrel, false, stream);
-      std::copy(tilt.data(), tilt.data() + 3, st);
+      const Vec3 np = std::sqrt(1.0 - tilt.squaredNorm()) * n + tilt;
+      std::copy(np.data(), np.data() + 3, st);
+      st[3] = std::min(delta, -vrel.dot(np) * dt) + np.dot(xij);  // H: starts at <= one step
       st[4] = double(stream.step);
-    } else if (enduring(p, m, st, stream.step, dt)) {
+      st[5] = 0.0;
+    } else if (!(st[0] == 0 && st[1] == 0 && st[2] == 0) && enduring(p, m, st, stream.step, dt)) {
+      const double current = st[3] - Eigen::Map<const Vec3>(st).dot(xij) + st[5];
       std::fill(st, st + 3, 0.0);
+      st[3] = current - delta;
     }
-    return tilted_normal(n, st);
+    if (st[0] == 0 && st[1] == 0 && st[2] == 0) {  // enduring: back on the line of centres
+      overlap = delta + st[3];
+      return n;
+    }
+    const Vec3 np = Eigen::Map<const Vec3>(st);
+    // The spin part of the last step's approach, with the spins that moved the spheres (as the
+    // positions were moved with the new velocities: symplectic, not explicit, Euler).
+    if (active) st[5] += np.dot(spin) * dt;
+    overlap = st[3] - np.dot(xij) + st[5];
+    return np;
+  }
+
+  // The virtual overlap of a rough pair entry (for the energy lost when it opens).
+  static double rough_pair_overlap(const double* st, const Vec3& xij, double delta) {
+    if (st[0] == 0 && st[1] == 0 && st[2] == 0) return delta + st[3];
+    return st[3] - Eigen::Map<const Vec3>(st).dot(xij) + st[5];
   }
 
   // Rough wall: the sphere meets a virtual plane (a facet) tilted by dG, fixed to the wall at
@@ -98,6 +125,7 @@ struct Stepper {
                          const ContactStream& stream, double dt, Vec3& n, double& delta) {
     if (!active) {
       // A facet contact starts when the sphere touches the real wall while approaching it.
+      // (st[5] is unused for walls.)
       if (delta <= 0 || vrel.dot(n) >= 0) {
         delta = 0;
         return;
@@ -161,7 +189,15 @@ struct Stepper {
           if (touch[e]) {
             touch[e] = 0;
             overlap[e] = 0;
-            if constexpr (kHistory) release(table(mat[i], mat[j]), xi + 3 * e, lost);
+            const PairParams& params = table(mat[i], mat[j]);
+            if constexpr (kHistory) release(params, xi + 3 * e, lost);
+            if constexpr (kRough) {
+              if (params.roughness > 0) {  // a facet spring still loaded is lost with it
+                const double o = rough_pair_overlap(rough + kRoughWidth * e, d,
+                                                    rs - std::sqrt(dist2));
+                if (o > 0) lost += 0.5 * params.kn * o * o;
+              }
+            }
           }
           continue;
         }
@@ -179,10 +215,24 @@ struct Stepper {
           g.cj = r[j] - 0.5 * g.delta;
         }
         bool tilted = false;
+        double* st = nullptr;
         if constexpr (kRough) {
           if (params.roughness > 0) {
+            st = rough + kRoughWidth * e;
             const ContactStream stream{seed, std::uint64_t(ids[i]), std::uint64_t(ids[j]), step};
-            g.n = rough_pair(params, n, vrel, g.m_eff, touch[e], rough + kRoughWidth * e, stream, dt);
+            double virtual_overlap = 0;
+            const Vec3 spin = (g.ci * vec3(w, i) + g.cj * vec3(w, j)).cross(n);
+            g.n = rough_pair(params, n, d, g.delta, vrel, spin, g.m_eff, touch[e], st, stream, dt,
+                             virtual_overlap);
+            if (!(virtual_overlap > 0)) {  // not (or no longer) pressed across the facet
+              if (touch[e]) {
+                touch[e] = 0;
+                overlap[e] = 0;
+                if constexpr (kHistory) release(params, xi + 3 * e, lost);
+              }
+              continue;
+            }
+            g.delta = virtual_overlap;
             tilted = true;
           }
         }
@@ -192,7 +242,8 @@ struct Stepper {
             g.vt = vrel - g.vn * n - (g.ci * vec3(w, i) + g.cj * vec3(w, j)).cross(n);
         } else {
           // Contact points on the line of centres; normal and tangential parts relative to n'.
-          const Vec3 vcp = vrel - (g.ci * vec3(w, i) + g.cj * vec3(w, j)).cross(n);
+          const Vec3 spin = (g.ci * vec3(w, i) + g.cj * vec3(w, j)).cross(n);
+          const Vec3 vcp = vrel - spin;
           g.vn = vcp.dot(g.n);
           if constexpr (kTangential) g.vt = vcp - g.vn * g.n;
         }
@@ -204,7 +255,7 @@ struct Stepper {
         }
         ContactResult res = evaluate(g, params, dt, xi + 3 * e);
         touch[e] = 1;
-        overlap[e] = g.delta;
+        overlap[e] = rs - dist;  // geometric: it sets the levers c = r - overlap/2
         vec3(force, e) = res.force;
         F += res.force;
         if constexpr (kTangential || kRough) {
