@@ -134,9 +134,10 @@ def initial_state(n: int, start: int = 0, stop: int | None = None) -> tuple[np.n
 def material(friction: float = MU, rolling_friction: float = 0.0, roughness: float = 0.0):
     """The scene's material (spheres and walls share it; ``roughness`` in degrees)."""
     import tsubu
+    rough = {"roughness": roughness} if roughness > 0 else {}
     return tsubu.Material(density=RHO, kn=KN, kt=KT, restitution=E_REST, friction=friction,
                           rolling_friction=rolling_friction, tangential_damping=0.0,
-                          roughness=roughness, name="reference glass")
+                          name="reference glass", **rough)
 
 
 def build(n, threads=None, friction: float = MU, rolling_friction: float = 0.0, chunk: int = 1 << 16,
