@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
 import pytest
 
 import tsubu
@@ -54,3 +55,15 @@ def contact_time(e: float, m_eff: float, k: float = REF_KN) -> float:
 def ref_material() -> tsubu.Material:
     """The reference material with its default restitution 0.5 and friction 0.5."""
     return make_material()
+
+
+def momenta(sim: tsubu.Simulation, origin):
+    """Linear momentum, angular momentum about `origin` (orbital m x × v + spin I w, I = 2/5 m r^2)
+    and the scales sum m|v| and sum |m x × v| + |I w| used for relative errors."""
+    x = sim.positions - origin
+    v, w, m, r = sim.velocities, sim.angular_velocities, sim.masses, sim.radii
+    p = m[:, None] * v
+    orbital = np.cross(x, p)
+    spin = (0.4 * m * r * r)[:, None] * w
+    return (p.sum(0), np.abs(p).sum(), orbital.sum(0) + spin.sum(0),
+            np.abs(orbital).sum() + np.abs(spin).sum())

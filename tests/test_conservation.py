@@ -20,6 +20,7 @@ import numpy as np
 import pytest
 
 import tsubu
+from conftest import momenta
 
 RHO = 2500.0
 KN = 1.0e3
@@ -45,14 +46,6 @@ def cloud(seed: int, n: int, r_min: float, r_max: float, rolling_friction: float
     return sim
 
 
-def momenta(sim: tsubu.Simulation, origin):
-    x = sim.positions - origin
-    v, w, m, r = sim.velocities, sim.angular_velocities, sim.masses, sim.radii
-    p = m[:, None] * v
-    orbital = np.cross(x, p)
-    spin = (0.4 * m * r * r)[:, None] * w
-    return (p.sum(0), np.abs(p).sum(), orbital.sum(0) + spin.sum(0),
-            np.abs(orbital).sum() + np.abs(spin).sum())
 
 
 def check_cloud(sim: tsubu.Simulation, steps: int, chunk: int = 10):

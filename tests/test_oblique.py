@@ -35,6 +35,7 @@ import numpy as np
 import pytest
 
 import tsubu
+from conftest import momenta
 
 R = 0.5e-3
 KN = 1.0e3
@@ -158,16 +159,6 @@ def test_friction_alone_never_adds_energy(angle):
     assert kt_f <= 0.5 * M * vt ** 2 * (1.0 + 1e-12), (angle, kt_f / (0.5 * M * vt ** 2) - 1)
 
 
-def momenta(sim: tsubu.Simulation, origin):
-    """Linear momentum, angular momentum about `origin` (orbital m x × v + spin I w) and the
-    scales sum m|v| and sum |m x × v| + |I w| used for relative errors."""
-    x = sim.positions - origin
-    v, w, m, r = sim.velocities, sim.angular_velocities, sim.masses, sim.radii
-    p = m[:, None] * v
-    orbital = np.cross(x, p)
-    spin = (0.4 * m * r * r)[:, None] * w
-    return (p.sum(0), np.abs(p).sum(), orbital.sum(0) + spin.sum(0),
-            np.abs(orbital).sum() + np.abs(spin).sum())
 
 
 @pytest.mark.parametrize("history", ["rotate", "literal"])
