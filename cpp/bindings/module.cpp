@@ -227,6 +227,7 @@ PYBIND11_MODULE(_core, m) {
       .def_property_readonly("step_count", &tsubu::Simulation::step_count)
       .def_property_readonly("time", &tsubu::Simulation::time)
       .def("law_name", &tsubu::Simulation::law_name)
+      .def("threads_used", &tsubu::Simulation::threads_used)
       // state
       .def_property_readonly("size", &tsubu::Simulation::size)
       .def("positions", [](const tsubu::Simulation& s) {

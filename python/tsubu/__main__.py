@@ -52,7 +52,7 @@ def demo(args: argparse.Namespace) -> int:
     pairs = int(np.sum(c["wall"] < 0))
     walls = int(np.sum(c["wall"] >= 0))
     print(f"  simulated {sim.time * 1e3:.2f} ms in {sim.step_count} steps, {wall:.2f} s wall time "
-          f"({n * sim.step_count / wall / 1e6:.1f} M particle-steps/s, {sim.threads or 'all'} threads)")
+          f"({n * sim.step_count / wall / 1e6:.1f} M particle-steps/s on {sim.threads_used} thread(s))")
     print(f"  mean height {z.mean() * 1e3:.3f} mm (started at {z0 * 1e3:.3f} mm), "
           f"lowest centre {z.min() * 1e3:.4f} mm")
     print(f"  contacts: {pairs} sphere-sphere, {walls} sphere-wall; max overlap "

@@ -130,6 +130,17 @@ class Simulation:
         self._core.threads = 0 if value is None else _checks.whole("threads", value, minimum=1)
 
     @property
+    def parallel_min(self) -> int:
+        """Scenes with fewer spheres run on one thread (see the constructor)."""
+        return self._core.parallel_min
+
+    @property
+    def threads_used(self) -> int:
+        """Threads a run of this scene uses: 1 below ``parallel_min`` spheres (or in a build
+        without OpenMP), else ``threads`` or OpenMP's default."""
+        return self._core.threads_used()
+
+    @property
     def skin(self) -> float:
         """Neighbour-list skin [m]."""
         return self._core.skin()

@@ -131,6 +131,9 @@ class Simulation {
   long step_count() const { return step_; }
   double time() const { return time_; }
   std::string law_name() const;  // the compiled specialisation the next run uses
+  // Threads a run of this scene uses: 1 below options().parallel_min spheres (or without
+  // OpenMP), else options().threads or OpenMP's default.
+  int threads_used() const { return static_cast<int>(n_) < opt_.parallel_min ? 1 : threads(); }
 
   // ---- state, in id order ------------------------------------------------------------------
   std::size_t size() const { return n_; }
