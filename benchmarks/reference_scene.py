@@ -141,12 +141,14 @@ def material(friction: float = MU, rolling_friction: float = 0.0, roughness: flo
 
 
 def build(n, threads=None, friction: float = MU, rolling_friction: float = 0.0, chunk: int = 1 << 16,
-          roughness: float = 0.0):
+          roughness: float = 0.0, slip_rule: str = "truncate"):
     """The reference scene with n particles as a ``tsubu.Simulation`` (not yet run).
 
     ``threads``: OpenMP threads (None: OpenMP's default). ``friction`` / ``rolling_friction``:
     override mu / mu_r of every contact (the reference scene: 0.5 / 0). ``roughness`` (degrees):
-    make the five walls rough (the reference scene: 0, smooth). Spheres are added in
+    make the five walls rough (the reference scene: 0, smooth). ``slip_rule``: SCENE.md's
+    Coulomb rule scales the trial force to the cap and truncates the history, tsubu's
+    "truncate" (the default here; tsubu's own default is the notes' "frozen"). Spheres are added in
     chunks of ``chunk`` so that the Python-side temporaries stay small next to the engine's
     own storage (this matters when peak memory is measured). The scene's dimensions are kept as
     ``sim.reference_scene`` (a dict: n, shape, lx, ly).
@@ -157,7 +159,8 @@ def build(n, threads=None, friction: float = MU, rolling_friction: float = 0.0, 
     lx, ly = box(n)
     mat = material(friction, rolling_friction)
     wall = material(friction, rolling_friction, roughness) if roughness > 0 else mat
-    sim = tsubu.Simulation(gravity=(0.0, 0.0, -G), dt=DT, threads=threads, skin=SKIN)
+    sim = tsubu.Simulation(gravity=(0.0, 0.0, -G), dt=DT, threads=threads, skin=SKIN,
+                           slip_rule=slip_rule)
     for start in range(0, n, chunk):
         x, v = initial_state(n, start, start + chunk)
         sim.add_spheres(x, R, mat, velocities=v)

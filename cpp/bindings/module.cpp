@@ -205,6 +205,19 @@ PYBIND11_MODULE(_core, m) {
               throw py::value_error("tangential_history must be 'rotate' or 'literal'");
           })
       .def_property(
+          "slip_rule",
+          [](const tsubu::Simulation& s) {
+            return s.options().slip == tsubu::SlipRule::Frozen ? "frozen" : "truncate";
+          },
+          [](tsubu::Simulation& s, const std::string& rule) {
+            if (rule == "frozen")
+              s.options().slip = tsubu::SlipRule::Frozen;
+            else if (rule == "truncate")
+              s.options().slip = tsubu::SlipRule::Truncate;
+            else
+              throw py::value_error("slip_rule must be 'frozen' or 'truncate'");
+          })
+      .def_property(
           "max_overlap", [](const tsubu::Simulation& s) { return s.options().max_overlap; },
           [](tsubu::Simulation& s, double v) { s.options().max_overlap = v; })
       .def_property(

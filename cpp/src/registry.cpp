@@ -26,7 +26,9 @@ struct Entry {
   X(Rotate, TangentialRotate, false, NoRolling)        \
   X(Rotate, TangentialRotate, true, RollingFriction)   \
   X(Literal, TangentialLiteral, false, NoRolling)      \
-  X(Literal, TangentialLiteral, true, RollingFriction)
+  X(Literal, TangentialLiteral, true, RollingFriction)          \
+  X(RotateTruncate, TangentialRotateTruncate, false, NoRolling) \
+  X(RotateTruncate, TangentialRotateTruncate, true, RollingFriction)
 
 #define TSUBU_ENTRY(KIND, T, ROLL, R)                                                  \
   {TangentialKind::KIND, ROLL, false, false, &step_fn<T, R, NoRoughness, false>},         \
@@ -50,9 +52,10 @@ StepFunction find_stepper(const LawKey& key) { return lookup(key).fn; }
 
 std::string law_name(const LawKey& key) {
   std::string s = "hooke";
-  s += key.tangential == TangentialKind::None     ? "+frictionless"
-       : key.tangential == TangentialKind::Rotate ? "+friction(rotate)"
-                                                  : "+friction(literal)";
+  s += key.tangential == TangentialKind::None      ? "+frictionless"
+       : key.tangential == TangentialKind::Rotate  ? "+friction(rotate)"
+       : key.tangential == TangentialKind::Literal ? "+friction(literal)"
+                                                   : "+friction(rotate, truncate)";
   if (key.rolling) s += "+rolling";
   if (key.roughness) s += "+roughness";
   s += key.moving_walls ? "+moving-walls" : "";

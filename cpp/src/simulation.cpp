@@ -294,7 +294,7 @@ double Simulation::skin() const {
 }
 
 static LawKey law_key(const std::vector<Material>& materials, const PairTable& pairs,
-                      const std::vector<Plane>& planes, HistoryRule rule) {
+                      const std::vector<Plane>& planes, HistoryRule rule, SlipRule slip) {
   LawKey key;
   bool friction = false, rolling = false, rough = false;
   for (std::size_t a = 0; a < materials.size(); ++a)
@@ -305,7 +305,9 @@ static LawKey law_key(const std::vector<Material>& materials, const PairTable& p
       rough |= p.roughness > 0;
     }
   if (friction)
-    key.tangential = rule == HistoryRule::Rotate ? TangentialKind::Rotate : TangentialKind::Literal;
+    key.tangential = rule == HistoryRule::Literal  ? TangentialKind::Literal
+                     : slip == SlipRule::Truncate ? TangentialKind::RotateTruncate
+                                                  : TangentialKind::Rotate;
   key.rolling = rolling;
   key.roughness = rough;
   for (const Plane& p : planes) key.moving_walls |= p.moving();
@@ -318,12 +320,14 @@ std::string Simulation::law_name() const {
   t.resize(nm);
   for (std::size_t a = 0; a < nm; ++a)
     for (std::size_t b = a; b < nm; ++b) t.set(a, b, pair_parameters(int(a), int(b)));
-  return tsubu::law_name(law_key(materials_, t, planes_, opt_.history));
+  return tsubu::law_name(law_key(materials_, t, planes_, opt_.history, opt_.slip));
 }
 
 void Simulation::prepare_run() {
   require(opt_.gravity.allFinite(), "gravity is not finite");
   require(opt_.max_overlap > 0, "max_overlap must be > 0");
+  require(!(opt_.slip == SlipRule::Truncate && opt_.history == HistoryRule::Literal),
+          "the truncate slip rule needs the rotate tangential history");
   mix_pairs();
   dt_ = time_step();
   require(std::isfinite(dt_) && dt_ > 0,
@@ -332,7 +336,7 @@ void Simulation::prepare_run() {
   if (dt_ > crit && !opt_.allow_unstable_dt)
     throw InvalidArgument("dt = " + fmt(dt_) + " s exceeds the stability bound " + fmt(crit) +
                           " s of (2.31) for this scene; use a smaller dt or allow_unstable_dt");
-  const LawKey key = law_key(materials_, pairs_, planes_, opt_.history);
+  const LawKey key = law_key(materials_, pairs_, planes_, opt_.history, opt_.slip);
   has_history_ = key.tangential != TangentialKind::None;
   has_rolling_ = key.rolling;
   has_rough_ = key.roughness;
@@ -355,7 +359,7 @@ void Simulation::run(long steps) {
     return;
   }
   prepare_run();
-  const LawKey key = law_key(materials_, pairs_, planes_, opt_.history);
+  const LawKey key = law_key(materials_, pairs_, planes_, opt_.history, opt_.slip);
   find_stepper(key)(*this, steps);
 }
 

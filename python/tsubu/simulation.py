@@ -56,6 +56,12 @@ class Simulation:
         then incremented by v_t dt (as LAMMPS, LIGGGHTS). "literal": the notes' eq. (1.14),
         which re-aims the whole accumulated length along the current v_t; offered for
         comparison (docs/physics.md).
+    slip_rule : {"frozen", "truncate"}
+        What a slipping contact does. "frozen" (default): the notes' (1.17)-(1.18), force
+        mu |f_n| against the slip velocity, stored displacement kept. "truncate": LAMMPS's
+        gran/hooke/history and the shared reference scene's: the spring force is scaled to
+        mu |f_n| in its own direction and the displacement truncated to match (needs
+        tangential_history="rotate"); use it to compare with those codes digit for digit.
     max_overlap : float
         A run stops with InstabilityError when an overlap exceeds this fraction of the smaller
         radius. Default 0.5.
@@ -69,7 +75,8 @@ class Simulation:
     """
 
     def __init__(self, gravity=(0.0, 0.0, -9.81), dt=None, threads=None, seed: int = 0,
-                 skin=None, tangential_history: str = "rotate", max_overlap: float = 0.5,
+                 skin=None, tangential_history: str = "rotate", slip_rule: str = "frozen",
+                 max_overlap: float = 0.5,
                  initial_overlap: float = 0.05, allow_unstable_dt: bool = False,
                  rebuild_every_step: bool = False, parallel_min: int = 2048):
         self._core = _core.Simulation()
@@ -87,6 +94,12 @@ class Simulation:
         if tangential_history not in ("rotate", "literal"):
             raise ValueError(f"tangential_history must be 'rotate' or 'literal', got {tangential_history!r}")
         self._core.history_rule = tangential_history
+        if slip_rule not in ("frozen", "truncate"):
+            raise ValueError(f"slip_rule must be 'frozen' or 'truncate', got {slip_rule!r}")
+        if slip_rule == "truncate" and tangential_history != "rotate":
+            raise ValueError("slip_rule='truncate' needs tangential_history='rotate', got "
+                             f"{tangential_history!r}")
+        self._core.slip_rule = slip_rule
         self._core.max_overlap = _checks.positive("max_overlap", max_overlap)
         self._core.initial_overlap = _checks.positive("initial_overlap", initial_overlap, allow_zero=True)
         if not isinstance(allow_unstable_dt, bool):

@@ -6,7 +6,7 @@ namespace tsubu {
 
 class Simulation;
 
-enum class TangentialKind { None = 0, Rotate = 1, Literal = 2 };
+enum class TangentialKind { None = 0, Rotate = 1, Literal = 2, RotateTruncate = 3 };
 
 // The features a scene uses, decided once when a run starts.
 struct LawKey {

@@ -15,6 +15,10 @@ namespace tsubu {
 
 // How the stored tangential displacement follows the contact (DESIGN.md note 3).
 enum class HistoryRule { Rotate = 0, Literal = 1 };
+// What a slipping contact does (docs/physics.md): the notes' (1.17)-(1.18), force mu |f_n|
+// against the slip velocity with the displacement frozen; or LAMMPS's, the spring force scaled
+// to the cap in its own direction with the displacement truncated (rotate history only).
+enum class SlipRule { Frozen = 0, Truncate = 1 };
 
 struct Options {
   Vec3 gravity = Vec3(0, 0, -9.81);  // m/s^2
@@ -25,6 +29,7 @@ struct Options {
   int parallel_min = 2048;
   double skin = 0;                   // m; 0: 0.2 x the mean diameter
   HistoryRule history = HistoryRule::Rotate;
+  SlipRule slip = SlipRule::Frozen;
   double max_overlap = 0.5;          // instability if overlap > max_overlap x the smaller radius
   double initial_overlap = 0.05;     // refused at the first run if an overlap exceeds this x radius
   bool allow_unstable_dt = false;    // run with dt above critical_time_step()
