@@ -63,6 +63,8 @@ import sys
 import tempfile
 import time
 
+from bench_common import cpu_seconds, machine, parse_size, system_busy_s
+
 import numpy as np
 
 HERE = os.path.dirname(os.path.abspath(__file__))
@@ -81,47 +83,12 @@ CONTENTION = 0.25     # cores used by other processes during a run above which i
 
 
 # ---------------------------------------------------------------- machine / contention helpers
-def _system_busy_s() -> float | None:
-    """CPU seconds used so far by the whole machine (all processes, all CPUs), from /proc/stat."""
-    try:
-        with open("/proc/stat") as f:
-            fields = f.readline().split()
-        j = [int(x) for x in fields[1:9]]          # user nice system idle iowait irq softirq steal
-        return (j[0] + j[1] + j[2] + j[5] + j[6] + j[7]) / os.sysconf("SC_CLK_TCK")
-    except (OSError, ValueError, IndexError):
-        return None
 
 
-def _cpu_s(who=resource.RUSAGE_SELF) -> float:
-    r = resource.getrusage(who)
-    return r.ru_utime + r.ru_stime
 
 
-def machine() -> dict:
-    import platform
-    cpu = platform.processor() or platform.machine()
-    try:
-        with open("/proc/cpuinfo") as f:
-            for line in f:
-                if line.startswith("model name"):
-                    cpu = line.split(":", 1)[1].strip()
-                    break
-    except OSError:
-        pass
-    try:
-        usable = len(os.sched_getaffinity(0))
-    except AttributeError:
-        usable = os.cpu_count()
-    return {"cpu": cpu, "logical_cpus": os.cpu_count(), "usable_cpus": usable,
-            "python": platform.python_version(), "platform": platform.platform(),
-            "loadavg": os.getloadavg() if hasattr(os, "getloadavg") else None}
 
 
-def parse_size(s: str) -> int:
-    v = float(s)
-    if v < 1 or v != int(v):
-        raise argparse.ArgumentTypeError(f"a size must be a positive whole number, got {s!r}")
-    return int(v)
 
 
 # ---------------------------------------------------------------- LAMMPS side
@@ -210,10 +177,10 @@ def run_lammps(lmp: str, n: int, steps: int, data: str, workdir: str, tag: str) 
     cmd = [lmp, "-in", IN_SCENE, "-var", "walls", WALLS, "-var", "data", data, "-var", "steps", str(steps),
            "-var", "out", dump, "-log", log, "-screen", screen]
     load_before = os.getloadavg()[0] if hasattr(os, "getloadavg") else None
-    busy0, child0, t0 = _system_busy_s(), _cpu_s(resource.RUSAGE_CHILDREN), time.perf_counter()
+    busy0, child0, t0 = system_busy_s(), cpu_seconds(resource.RUSAGE_CHILDREN), time.perf_counter()
     p = subprocess.run(cmd, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, env=_lmp_env(),
                        cwd=workdir)
-    t1, busy1, child1 = time.perf_counter(), _system_busy_s(), _cpu_s(resource.RUSAGE_CHILDREN)
+    t1, busy1, child1 = time.perf_counter(), system_busy_s(), cpu_seconds(resource.RUSAGE_CHILDREN)
     r = {"code": "lammps", "n": n, "steps": steps, "wall_s": t1 - t0, "loadavg_before": load_before,
          "cpu_use": (child1 - child0) / (t1 - t0),
          "other_load": None if busy0 is None else max(0.0, (busy1 - busy0) - (child1 - child0)) / (t1 - t0),
@@ -253,14 +220,14 @@ def tsubu_child(args) -> None:
     timed = steps - warmup
     rebuilds0 = sim.rebuild_count
     error = None
-    busy0, cpu0 = _system_busy_s(), _cpu_s()
+    busy0, cpu0 = system_busy_s(), cpu_seconds()
     t0 = time.perf_counter()
     try:
         sim.run(steps=timed)
     except tsubu.InstabilityError as e:
         error = f"InstabilityError at step {e.step}, particle {e.particle}: {e}"
     t1 = time.perf_counter()
-    busy1, cpu1 = _system_busy_s(), _cpu_s()
+    busy1, cpu1 = system_busy_s(), cpu_seconds()
     np.savez(args.final, x=np.asarray(sim.positions), v=np.asarray(sim.velocities),
              w=np.asarray(sim.angular_velocities), m=np.asarray(sim.masses), r=np.asarray(sim.radii))
     out = {"timed_steps": timed, "warmup": warmup, "loop_s": t1 - t0, "cpu_use": (cpu1 - cpu0) / (t1 - t0),

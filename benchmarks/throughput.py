@@ -39,12 +39,13 @@ from __future__ import annotations
 import argparse
 import json
 import os
-import platform
 import resource
 import statistics
 import subprocess
 import sys
 import time
+
+from bench_common import cpu_seconds, machine, parse_size, system_busy_s
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 
@@ -67,45 +68,12 @@ def _maxrss_kib() -> int:
     return r // 1024 if sys.platform == "darwin" else r   # bytes on macOS, KiB on Linux
 
 
-def _system_busy_s() -> float | None:
-    """CPU seconds spent so far by the whole machine (all processes, all CPUs), from /proc/stat."""
-    try:
-        with open("/proc/stat") as f:
-            fields = f.readline().split()
-        j = [int(x) for x in fields[1:9]]          # user nice system idle iowait irq softirq steal
-        return (j[0] + j[1] + j[2] + j[5] + j[6] + j[7]) / os.sysconf("SC_CLK_TCK")
-    except (OSError, ValueError, IndexError):
-        return None
 
 
-def _own_cpu_s() -> float:
-    r = resource.getrusage(resource.RUSAGE_SELF)
-    return r.ru_utime + r.ru_stime
 
 
-def machine() -> dict:
-    cpu = platform.processor() or platform.machine()
-    try:
-        with open("/proc/cpuinfo") as f:
-            for line in f:
-                if line.startswith("model name"):
-                    cpu = line.split(":", 1)[1].strip()
-                    break
-    except OSError:
-        pass
-    try:
-        usable = len(os.sched_getaffinity(0))
-    except AttributeError:
-        usable = os.cpu_count()
-    return {"cpu": cpu, "logical_cpus": os.cpu_count(), "usable_cpus": usable,
-            "python": platform.python_version(), "platform": platform.platform()}
 
 
-def parse_size(s: str) -> int:
-    v = float(s)
-    if v < 1 or v != int(v):
-        raise argparse.ArgumentTypeError(f"a size must be a positive whole number, got {s!r}")
-    return int(v)
 
 
 # ---------------------------------------------------------------- child: one timed run
@@ -130,14 +98,14 @@ def child(args) -> None:
     timed = steps - warmup
     error = None
     load_before = os.getloadavg()[0] if hasattr(os, "getloadavg") else None
-    busy0, cpu0 = _system_busy_s(), _own_cpu_s()
+    busy0, cpu0 = system_busy_s(), cpu_seconds()
     t0 = time.perf_counter()
     try:
         sim.run(steps=timed)
     except tsubu.InstabilityError as e:
         error = f"InstabilityError at step {e.step}, particle {e.particle}: {e}"
     t1 = time.perf_counter()
-    busy1, cpu1 = _system_busy_s(), _own_cpu_s()
+    busy1, cpu1 = system_busy_s(), cpu_seconds()
     loop_cpu = cpu1 - cpu0
     # CPU time that other processes took during the loop, in cores (contention on a shared machine)
     other = None if busy0 is None else max(0.0, (busy1 - busy0) - loop_cpu) / (t1 - t0)
@@ -190,11 +158,11 @@ def wait_quiet(limit_s: float, sample_s: float = 3.0) -> float | None:
     cores over a sample_s window; returns the last load measured (cores), None if unknown."""
     deadline = time.monotonic() + limit_s
     while True:
-        b0, c0 = _system_busy_s(), _own_cpu_s()
+        b0, c0 = system_busy_s(), cpu_seconds()
         if b0 is None:
             return None
         time.sleep(sample_s)
-        load = max(0.0, (_system_busy_s() - b0) - (_own_cpu_s() - c0)) / sample_s
+        load = max(0.0, (system_busy_s() - b0) - (cpu_seconds() - c0)) / sample_s
         if load < CONTENTION or time.monotonic() >= deadline:
             return load
 

@@ -1,0 +1,53 @@
+"""Helpers shared by the benchmark scripts: what the machine is, and how busy it is."""
+from __future__ import annotations
+
+import argparse
+import os
+import platform
+import resource
+
+
+def system_busy_s() -> float | None:
+    """CPU seconds spent so far by the whole machine (all processes, all CPUs), from /proc/stat."""
+    try:
+        with open("/proc/stat") as f:
+            fields = f.readline().split()
+        j = [int(x) for x in fields[1:9]]          # user nice system idle iowait irq softirq steal
+        return (j[0] + j[1] + j[2] + j[5] + j[6] + j[7]) / os.sysconf("SC_CLK_TCK")
+    except (OSError, ValueError, IndexError):
+        return None
+
+
+
+def cpu_seconds(who=resource.RUSAGE_SELF) -> float:
+    """User + system CPU seconds of this process (or of its finished children)."""
+    r = resource.getrusage(who)
+    return r.ru_utime + r.ru_stime
+
+
+def machine() -> dict:
+    """CPU model, core counts, Python, platform and load average."""
+    cpu = platform.processor() or platform.machine()
+    try:
+        with open("/proc/cpuinfo") as f:
+            for line in f:
+                if line.startswith("model name"):
+                    cpu = line.split(":", 1)[1].strip()
+                    break
+    except OSError:
+        pass
+    try:
+        usable = len(os.sched_getaffinity(0))
+    except AttributeError:
+        usable = os.cpu_count()
+    return {"cpu": cpu, "logical_cpus": os.cpu_count(), "usable_cpus": usable,
+            "python": platform.python_version(), "platform": platform.platform(),
+            "loadavg": os.getloadavg() if hasattr(os, "getloadavg") else None}
+
+
+def parse_size(s: str) -> int:
+    """A particle count from the command line: '1e4', '100000'."""
+    v = float(s)
+    if v < 1 or v != int(v):
+        raise argparse.ArgumentTypeError(f"a size must be a positive whole number, got {s!r}")
+    return int(v)
