@@ -34,15 +34,14 @@ void permute(std::vector<T>& a, const std::vector<Index>& perm, int width, std::
 
 bool Simulation::needs_rebuild() const {
   if (!list_valid_ || opt_.rebuild_every_step) return true;
-  const double md = std::sqrt(max_disp2_);
-  if (2.0 * md > list_skin_) return true;  // two particles closing by skin
+  if (2.0 * moved_ > list_skin_) return true;  // two particles closing by skin
   for (std::size_t w = 0; w < planes_.size(); ++w) {
     const Plane& p = planes_[w];
     if (!p.moving()) continue;
     // |change of the signed distance| <= |n.(p - p0)| + |n - n0| |x - p0| for any particle.
     const double shift = std::abs(p.normal.dot(p.point - plane_point_ref_[w])) +
                          (p.normal - plane_normal_ref_[w]).norm() * (plane_reach_ + list_skin_);
-    if (md + shift > list_skin_) return true;
+    if (moved_ + shift > list_skin_) return true;
   }
   return false;
 }
@@ -74,8 +73,6 @@ void Simulation::sort_by_cell(double h, const Vec3& lo, const std::array<long, 3
   permute(x_, perm_, 3, scratch_);
   permute(v_, perm_, 3, scratch_);
   permute(w_, perm_, 3, scratch_);
-  permute(f_, perm_, 3, scratch_);
-  permute(t_, perm_, 3, scratch_);
   permute(radius_, perm_, 1, scratch_);
   permute(mass_, perm_, 1, scratch_);
   permute(inv_mass_, perm_, 1, scratch_);
@@ -87,63 +84,58 @@ void Simulation::sort_by_cell(double h, const Vec3& lo, const std::array<long, 3
   for (std::size_t k = 0; k < n; ++k) index_of_[id_[k]] = static_cast<Index>(k);
 }
 
+void Simulation::stash_near() {
+  old_near_offset_.swap(near_offset_);
+  old_near_partner_id_.resize(near_partner_.size());
+  for (std::size_t q = 0; q < near_partner_.size(); ++q)
+    old_near_partner_id_[q] = id_[near_partner_[q]];
+  for (std::size_t k = 0; k < kEntryArrays; ++k) old_pair_state_[k].swap(*pair_state(k));
+}
+
 void Simulation::rebuild(bool keep_history) {
   const std::size_t n = n_;
-  if (n == 0) {
-    pair_offset_.assign(1, 0);
-    rev_offset_.assign(1, 0);
-    wall_offset_.assign(1, 0);
-    pair_partner_.clear();
-    pair_owner_.clear();
-    rev_entry_.clear();
-    wall_index_.clear();
-    size_entry_buffers();
-    list_valid_ = true;
-    return;
-  }
   const double skin = this->skin();
   list_skin_ = skin;
 
-  // 1. Remember the old lists, in terms of ids, and their per-entry state.
-  const std::size_t old_n = pair_offset_.size() == 0 ? 0 : pair_offset_.size() - 1;
+  // 1. Set the old near and wall lists aside, in terms of ids, with their state.
+  const std::size_t old_n = near_offset_.size() == 0 ? 0 : near_offset_.size() - 1;
   const bool transfer = keep_history && old_n > 0 && wall_offset_.size() == old_n + 1;
   if (transfer) {
-    old_offset_.swap(pair_offset_);
-    old_partner_id_.resize(pair_partner_.size());
-    for (std::size_t e = 0; e < pair_partner_.size(); ++e) old_partner_id_[e] = id_[pair_partner_[e]];
+    stash_near();
     old_wall_offset_.swap(wall_offset_);
     old_wall_index_.swap(wall_index_);
     old_index_of_ = index_of_;
-    for (std::size_t k = 0; k < kEntryArrays; ++k) {
-      old_pair_state_[k].swap(*pair_state(k));
-      old_wall_state_[k].swap(*wall_state(k));
-    }
+    for (std::size_t k = 0; k < kEntryArrays; ++k) old_wall_state_[k].swap(*wall_state(k));
   }
 
   // 2. Cells: the bounding box of the particles, cells no smaller than the largest cutoff.
-  Vec3 lo = Vec3::Constant(std::numeric_limits<double>::infinity()), hi = -lo;
-  double rmax = 0;
-  for (std::size_t k = 0; k < n; ++k) {
-    lo = lo.cwiseMin(Vec3(vec3(x_.data(), k)));
-    hi = hi.cwiseMax(Vec3(vec3(x_.data(), k)));
-    rmax = std::max(rmax, radius_[k]);
-  }
-  if (n == 0) lo = hi = Vec3::Zero();
-  double h = 2.0 * rmax + skin;
-  std::array<long, 3> dims{};
-  const double max_cells = 2.0 * static_cast<double>(n) + 1000.0;
-  for (;;) {
-    double total = 1;
-    for (int d = 0; d < 3; ++d) {
-      dims[d] = static_cast<long>(std::floor((hi[d] - lo[d]) / h)) + 1;
-      total *= static_cast<double>(dims[d]);
+  Vec3 lo = Vec3::Zero(), hi = Vec3::Zero();
+  std::array<long, 3> dims{1, 1, 1};
+  double h = 1;
+  if (n > 0) {
+    lo = Vec3::Constant(std::numeric_limits<double>::infinity());
+    hi = -lo;
+    double rmax = 0;
+    for (std::size_t k = 0; k < n; ++k) {
+      lo = lo.cwiseMin(Vec3(vec3(x_.data(), k)));
+      hi = hi.cwiseMax(Vec3(vec3(x_.data(), k)));
+      rmax = std::max(rmax, radius_[k]);
     }
-    if (total <= max_cells) break;
-    h *= 1.25;  // a sparse scene: fewer, larger cells keep memory O(N)
+    h = 2.0 * rmax + skin;
+    const double max_cells = 2.0 * static_cast<double>(n) + 1000.0;
+    for (;;) {
+      double total = 1;
+      for (int d = 0; d < 3; ++d) {
+        dims[d] = static_cast<long>(std::floor((hi[d] - lo[d]) / h)) + 1;
+        total *= static_cast<double>(dims[d]);
+      }
+      if (total <= max_cells) break;
+      h *= 1.25;  // a sparse scene: fewer, larger cells keep memory O(N)
+    }
+    sort_by_cell(h, lo, dims);
   }
-  sort_by_cell(h, lo, dims);
 
-  // 3. Half pair list, each pair owned by its lower id: count, prefix sum, fill, sort.
+  // 3. Verlet half list, each pair owned by its lower id: count, prefix sum, fill, sort.
   pair_offset_.assign(n + 1, 0);
   const double* x = x_.data();
   const double* r = radius_.data();
@@ -171,104 +163,71 @@ void Simulation::rebuild(bool keep_history) {
     pair_offset_[i + 1] = count;
   }
   for (std::size_t i = 0; i < n; ++i) pair_offset_[i + 1] += pair_offset_[i];
-  const std::size_t m = static_cast<std::size_t>(pair_offset_[n]);
-  pair_partner_.resize(m);
-  pair_owner_.resize(m);
+  pair_partner_.resize(static_cast<std::size_t>(pair_offset_[n]));
 #pragma omp parallel for schedule(static) num_threads(threads()) if (ni >= opt_.parallel_min)
   for (Index i = 0; i < ni; ++i) {
     Index e = pair_offset_[i];
-    for_each_neighbor(i, [&](Index j) {
-      pair_owner_[e] = i;
-      pair_partner_[e++] = j;
-    });
+    for_each_neighbor(i, [&](Index j) { pair_partner_[e++] = j; });
     insertion_sort(pair_partner_.data() + pair_offset_[i], pair_partner_.data() + pair_offset_[i + 1],
                    [&](Index j) { return id_[j]; });
   }
 
-  // 4. Reverse index: for each particle, the entries where it is the partner, by owner id.
-  rev_offset_.assign(n + 1, 0);
-  for (std::size_t e = 0; e < m; ++e) ++rev_offset_[pair_partner_[e] + 1];
-  for (std::size_t i = 0; i < n; ++i) rev_offset_[i + 1] += rev_offset_[i];
-  rev_entry_.resize(m);
-  {
-    std::vector<Index>& fill = scratch_int_;
-    fill.assign(rev_offset_.begin(), rev_offset_.end() - 1);
-    for (std::size_t e = 0; e < m; ++e) rev_entry_[fill[pair_partner_[e]]++] = static_cast<Index>(e);
-  }
-#pragma omp parallel for schedule(static) num_threads(threads()) if (ni >= opt_.parallel_min)
-  for (Index i = 0; i < ni; ++i)
-    insertion_sort(rev_entry_.data() + rev_offset_[i], rev_entry_.data() + rev_offset_[i + 1],
-                   [&](Index e) { return id_[pair_owner_[e]]; });
-
-  // 5. Near-wall list: particles within r + skin of a plane (or behind it).
+  // 4. Near-wall list: particles within r + skin of a plane (or behind it).
   wall_offset_.assign(n + 1, 0);
   const std::size_t nw = planes_.size();
+  auto near_wall = [&](std::size_t i, std::size_t w) {
+    return planes_[w].normal.dot(vec3(x, i) - planes_[w].point) < r[i] + skin;
+  };
   for (std::size_t i = 0; i < n; ++i) {
     Index count = 0;
-    for (std::size_t w = 0; w < nw; ++w)
-      if (planes_[w].normal.dot(vec3(x, i) - planes_[w].point) < r[i] + skin) ++count;
+    for (std::size_t w = 0; w < nw; ++w) count += near_wall(i, w);
     wall_offset_[i + 1] = wall_offset_[i] + count;
   }
   wall_index_.resize(static_cast<std::size_t>(wall_offset_[n]));
+  wall_owner_.resize(wall_index_.size());
   for (std::size_t i = 0; i < n; ++i) {
     Index e = wall_offset_[i];
     for (std::size_t w = 0; w < nw; ++w)
-      if (planes_[w].normal.dot(vec3(x, i) - planes_[w].point) < r[i] + skin)
+      if (near_wall(i, w)) {
+        wall_owner_[e] = static_cast<Index>(i);
         wall_index_[e++] = static_cast<Index>(w);
+      }
   }
-
-  // 6. Per-entry buffers, and the state of each contact (history, overlap, last results)
-  //    carried over by (owner id, partner id) or (id, wall).
   size_entry_buffers();
-  for (std::size_t k = 0; k < kEntryArrays; ++k) {
-    std::fill(pair_state(k)->begin(), pair_state(k)->end(), 0.0);
+  for (std::size_t k = 0; k < kEntryArrays; ++k)
     std::fill(wall_state(k)->begin(), wall_state(k)->end(), 0.0);
-  }
-  if (transfer) {
-    pair_from_old_.assign(pair_partner_.size(), -1);
-    wall_from_old_.assign(wall_index_.size(), -1);
-#pragma omp parallel for schedule(static) num_threads(threads()) if (ni >= opt_.parallel_min)
+  if (transfer) {  // wall contact state, by (id, wall)
     for (Index i = 0; i < ni; ++i) {
       const Id a = id_[i];
       if (a >= static_cast<Id>(old_index_of_.size())) continue;  // added since
       const Index oi = old_index_of_[a];
       if (static_cast<std::size_t>(oi) >= old_n) continue;
-      for (Index e = pair_offset_[i]; e < pair_offset_[i + 1]; ++e) {
-        const Id b = id_[pair_partner_[e]];
-        for (Index q = old_offset_[oi]; q < old_offset_[oi + 1]; ++q)
-          if (old_partner_id_[q] == b) {
-            pair_from_old_[e] = q;
-            break;
-          }
-      }
       for (Index e = wall_offset_[i]; e < wall_offset_[i + 1]; ++e)
         for (Index q = old_wall_offset_[oi]; q < old_wall_offset_[oi + 1]; ++q)
           if (old_wall_index_[q] == wall_index_[e]) {
-            wall_from_old_[e] = q;
+            for (std::size_t k = 0; k < kEntryArrays; ++k) {
+              const std::vector<double>& old = old_wall_state_[k];
+              std::vector<double>& now = *wall_state(k);
+              if (now.empty() || old.empty()) continue;  // the old or new law has no such array
+              const std::size_t wd = kEntryWidth[k];
+              std::copy(&old[wd * q], &old[wd * q] + wd, &now[wd * e]);
+            }
+            old_wall_state_[1][q] = 0;  // carried
             break;
           }
-    }
-    auto carry = [](const std::vector<Index>& from, const std::vector<double>& old,
-                    std::vector<double>& now, std::size_t width) {
-      if (now.empty() || old.empty()) return;  // the old or the new law has no such array
-      for (std::size_t e = 0; e < from.size(); ++e)
-        if (from[e] >= 0)
-          std::copy(&old[width * from[e]], &old[width * from[e]] + width, &now[width * e]);
-    };
-    for (std::size_t k = 0; k < kEntryArrays; ++k) {
-      carry(pair_from_old_, old_pair_state_[k], *pair_state(k), kEntryWidth[k]);
-      carry(wall_from_old_, old_wall_state_[k], *wall_state(k), kEntryWidth[k]);
+      for (Index q = old_wall_offset_[oi]; q < old_wall_offset_[oi + 1]; ++q)
+        if (old_wall_state_[1][q] > 0)  // touching, and now beyond the skin: it opened
+          dissipated_[i] += spring_energy(material_[i], planes_[old_wall_index_[q]].material,
+                                          old_wall_state_[0], q);
     }
   }
-
-  pair_touch_.resize(pair_overlap_.size());
-  wall_touch_.resize(wall_overlap_.size());
-  for (std::size_t e = 0; e < pair_overlap_.size(); ++e) pair_touch_[e] = pair_overlap_[e] > 0;
   for (std::size_t e = 0; e < wall_overlap_.size(); ++e) wall_touch_[e] = wall_overlap_[e] > 0;
 
-  // 7. Reference state for the rebuild criterion.
-  x_ref_ = x_;
-  max_disp2_ = 0;
+  // 5. The near list and its contact state.
+  refresh_near(transfer, true);
+
+  // 6. Reference state for the rebuild criterion.
+  moved_ = 0;
   plane_point_ref_.resize(nw);
   plane_normal_ref_.resize(nw);
   plane_reach_ = 0;
@@ -285,8 +244,91 @@ void Simulation::rebuild(bool keep_history) {
   ++rebuilds_;
 }
 
+void Simulation::refresh_near(bool transfer, bool reordered) {
+  const std::size_t n = n_;
+  const double* x = x_.data();
+  const double* r = radius_.data();
+  const double reach = near_skin();
+
+  // 1. The pairs of the Verlet list within r_i + r_j + skin/10, in the Verlet list's order.
+  near_offset_.resize(n + 1);
+  near_owner_.clear();
+  near_partner_.clear();
+  near_cut2_.clear();
+  near_offset_[0] = 0;
+  for (std::size_t i = 0; i < n; ++i) {
+    const Vec3 xi = vec3(x, i);
+    for (Index e = pair_offset_[i]; e < pair_offset_[i + 1]; ++e) {
+      const Index j = pair_partner_[e];
+      const double cut = r[i] + r[j];
+      if ((xi - vec3(x, j)).squaredNorm() < (cut + reach) * (cut + reach)) {
+        near_owner_.push_back(static_cast<Index>(i));
+        near_partner_.push_back(j);
+        near_cut2_.push_back(cut * cut);
+      }
+    }
+    near_offset_[i + 1] = static_cast<Index>(near_partner_.size());
+  }
+
+  // 2. Contact state, carried over by (owner id, partner id): rows are sorted by partner id.
+  size_entry_buffers();
+  for (std::size_t k = 0; k < kEntryArrays; ++k)
+    std::fill(pair_state(k)->begin(), pair_state(k)->end(), 0.0);
+  const std::size_t old_n = old_near_offset_.size() == 0 ? 0 : old_near_offset_.size() - 1;
+  if (transfer && old_n > 0) {
+    for (std::size_t i = 0; i < n; ++i) {
+      Index oi = static_cast<Index>(i);
+      if (reordered) {
+        if (id_[i] >= static_cast<Id>(old_index_of_.size())) continue;  // added since
+        oi = old_index_of_[id_[i]];
+      }
+      if (static_cast<std::size_t>(oi) >= old_n) continue;
+      Index p = old_near_offset_[oi];
+      const Index p_end = old_near_offset_[oi + 1];
+      for (Index q = near_offset_[i]; q < near_offset_[i + 1] && p < p_end; ++q) {
+        const Id b = id_[near_partner_[q]];
+        while (p < p_end && old_near_partner_id_[p] < b) ++p;
+        if (p == p_end || old_near_partner_id_[p] != b) continue;
+        for (std::size_t k = 0; k < kEntryArrays; ++k) {
+          const std::vector<double>& old = old_pair_state_[k];
+          std::vector<double>& now = *pair_state(k);
+          if (now.empty() || old.empty()) continue;  // the old or new law has no such array
+          const std::size_t wd = kEntryWidth[k];
+          std::copy(&old[wd * p], &old[wd * p] + wd, &now[wd * q]);
+        }
+        old_pair_state_[1][p] = 0;  // carried
+      }
+      for (p = old_near_offset_[oi]; p < p_end; ++p)
+        if (old_pair_state_[1][p] > 0) {  // touching, and now beyond the near list: it opened
+          const Index j = index_of_[old_near_partner_id_[p]];
+          dissipated_[i] += spring_energy(material_[i], material_[j], old_pair_state_[0], p);
+        }
+    }
+  }
+  for (std::size_t q = 0; q < pair_overlap_.size(); ++q) pair_touch_[q] = pair_overlap_[q] > 0;
+
+  // 3. Reverse index: for each particle, the entries where it is the partner, by owner id.
+  near_rev_offset_.assign(n + 1, 0);
+  const std::size_t m = near_partner_.size();
+  for (std::size_t q = 0; q < m; ++q) ++near_rev_offset_[near_partner_[q] + 1];
+  for (std::size_t i = 0; i < n; ++i) near_rev_offset_[i + 1] += near_rev_offset_[i];
+  near_rev_.resize(m);
+  {
+    std::vector<Index>& fill = scratch_int_;
+    fill.assign(near_rev_offset_.begin(), near_rev_offset_.end() - 1);
+    for (std::size_t q = 0; q < m; ++q) near_rev_[fill[near_partner_[q]]++] = static_cast<Index>(q);
+  }
+  for (std::size_t i = 0; i < n; ++i)
+    if (near_rev_offset_[i + 1] - near_rev_offset_[i] > 1)
+      insertion_sort(near_rev_.data() + near_rev_offset_[i], near_rev_.data() + near_rev_offset_[i + 1],
+                     [&](Index q) { return id_[near_owner_[q]]; });
+  active_.resize(m + wall_index_.size());  // pairs, then walls (step.hpp)
+  moved_near_ = 0;
+  ++refreshes_;
+}
+
 void Simulation::size_entry_buffers() {
-  const std::size_t m = pair_partner_.size(), k = wall_index_.size();
+  const std::size_t m = near_partner_.size(), k = wall_index_.size();
   pair_overlap_.resize(m, 0.0);
   pair_touch_.resize(m, 0);
   pair_force_.resize(3 * m, 0.0);
@@ -304,6 +346,11 @@ void Simulation::size_entry_buffers() {
   const std::size_t mr = has_rolling_ ? m : 0, kr = has_rolling_ ? k : 0;
   pair_roll_.resize(3 * mr, 0.0);
   wall_roll_.resize(3 * kr, 0.0);
+}
+
+double Simulation::spring_energy(int a, int b, const std::vector<double>& xi, std::size_t e) const {
+  if (xi.empty()) return 0;
+  return 0.5 * pairs_(a, b).kt * vec3(xi.data(), e).squaredNorm();
 }
 
 std::vector<double>* Simulation::pair_state(std::size_t k) {

@@ -147,7 +147,7 @@ Id Simulation::add_spheres(std::size_t n, const double* positions, const double*
   auto grow = [](auto& a, std::size_t need) {
     if (need > a.capacity()) a.reserve(std::max(need, a.capacity() + a.capacity() / 2));
   };
-  for (auto* a : {&x_, &v_, &w_, &f_, &t_, &x_ref_}) grow(*a, 3 * (n_ + n));
+  for (auto* a : {&x_, &v_, &w_}) grow(*a, 3 * (n_ + n));
   for (auto* a : {&radius_, &mass_, &inv_mass_, &inv_inertia_, &dissipated_}) grow(*a, n_ + n);
   grow(material_, n_ + n);
   grow(id_, n_ + n);
@@ -159,9 +159,6 @@ Id Simulation::add_spheres(std::size_t n, const double* positions, const double*
       x_.push_back(positions[3 * k + c]);
       v_.push_back(velocities ? velocities[3 * k + c] : 0.0);
       w_.push_back(angular_velocities ? angular_velocities[3 * k + c] : 0.0);
-      f_.push_back(0.0);
-      t_.push_back(0.0);
-      x_ref_.push_back(positions[3 * k + c]);
     }
     radius_.push_back(r);
     mass_.push_back(m);
@@ -340,8 +337,6 @@ void Simulation::prepare_run() {
   has_history_ = key.tangential != TangentialKind::None;
   has_rolling_ = key.rolling;
   has_rough_ = key.roughness;
-  if (key.tangential == TangentialKind::None && !key.rolling && !key.roughness)
-    std::fill(t_.begin(), t_.end(), 0.0);
   if (!list_valid_) rebuild(true);
   size_entry_buffers();
   if (!ran_) check_initial_overlaps();
@@ -395,9 +390,9 @@ void Simulation::report_overlap(double dt) const {
   std::string what;
   Id who = -1;
   for (std::size_t i = 0; i < n_; ++i) {
-    for (Index e = pair_offset_[i]; e < pair_offset_[i + 1]; ++e) {
-      const Index j = pair_partner_[e];
-      const double frac = pair_overlap_[e] / std::min(radius_[i], radius_[j]);
+    for (Index q = near_offset_[i]; q < near_offset_[i + 1]; ++q) {
+      const Index j = near_partner_[q];
+      const double frac = pair_overlap_[q] / std::min(radius_[i], radius_[j]);
       if (frac > worst || std::isnan(frac)) {
         worst = frac;
         who = id_[i];
@@ -423,19 +418,35 @@ void Simulation::report_overlap(double dt) const {
 }
 
 void Simulation::report_nonfinite() const {
-  for (std::size_t k = 0; k < n_; ++k) {
-    if (!finite3(f_.data() + 3 * k) || !finite3(t_.data() + 3 * k))
-      throw InstabilityError("unstable at step " + std::to_string(step_ + 1) +
-                                 ": non-finite force or torque on sphere " +
-                                 std::to_string(id_[k]) + ". The state before this step is kept.",
-                             step_ + 1, id_[k]);
+  auto finite_entry = [](const std::vector<double>& a, std::size_t e) {
+    return a.empty() || finite3(a.data() + 3 * e);
+  };
+  for (std::size_t i = 0; i < n_; ++i) {
+    for (Index e = wall_offset_[i]; e < wall_offset_[i + 1]; ++e)
+      if (!finite_entry(wall_force_, e) || !finite_entry(wall_nxft_, e) ||
+          !finite_entry(wall_roll_, e))
+        throw InstabilityError("unstable at step " + std::to_string(step_ + 1) +
+                                   ": non-finite contact force between sphere " +
+                                   std::to_string(id_[i]) + " and wall " +
+                                   std::to_string(wall_index_[e]) +
+                                   ". The positions and velocities before this step are kept.",
+                               step_ + 1, id_[i]);
+    for (Index q = near_offset_[i]; q < near_offset_[i + 1]; ++q)
+      if (!finite_entry(pair_force_, q) || !finite_entry(pair_nxft_, q) ||
+          !finite_entry(pair_roll_, q))
+        throw InstabilityError("unstable at step " + std::to_string(step_ + 1) +
+                                   ": non-finite contact force between spheres " +
+                                   std::to_string(id_[i]) + " and " +
+                                   std::to_string(id_[near_partner_[q]]) +
+                                   ". The positions and velocities before this step are kept.",
+                               step_ + 1, id_[i]);
   }
   throw InstabilityError("unstable: non-finite force", step_ + 1, -1);
 }
 
 void Simulation::report_nonfinite_velocity() const {
   for (std::size_t k = 0; k < n_; ++k)
-    if (!finite3(v_.data() + 3 * k))
+    if (!finite3(v_.data() + 3 * k) || !finite3(w_.data() + 3 * k))
       throw InstabilityError("unstable at step " + std::to_string(step_ + 1) +
                                  ": non-finite velocity of sphere " + std::to_string(id_[k]),
                              step_ + 1, id_[k]);
@@ -467,9 +478,41 @@ void Simulation::set_positions(const double* in) {
   list_valid_ = false;
 }
 
+// Sums each particle's contacts as the last step did (detail::ContactSums).
+template <class Out>
+void Simulation::for_each_contact_sum(Out&& out) const {
+  if (near_offset_.size() != n_ + 1) {
+    for (std::size_t k = 0; k < n_; ++k) out(k, Vec3(Vec3::Zero()), Vec3(Vec3::Zero()));
+    return;
+  }
+  const detail::ContactSums sums(*this);
+  const bool wall_lever = !wall_nxft_.empty(), pair_lever = !pair_nxft_.empty();
+  const bool rolling = !pair_roll_.empty();
+  for (std::size_t k = 0; k < n_; ++k) {
+    Vec3 F = Vec3::Zero(), T = Vec3::Zero();
+    const Index i = static_cast<Index>(k);
+    if (rolling)
+      sums.at<true, true, true>(i, F, T);
+    else if (wall_lever)
+      sums.at<true, true, false>(i, F, T);
+    else if (pair_lever)
+      sums.at<false, true, false>(i, F, T);
+    else
+      sums.at<false, false, false>(i, F, T);
+    out(k, F, T);
+  }
+}
+
 void Simulation::get_forces(double* out) const {
-  for (std::size_t k = 0; k < n_; ++k)
-    for (int c = 0; c < 3; ++c) out[3 * id_[k] + c] = f_[3 * k + c] + mass_[k] * opt_.gravity[c];
+  for_each_contact_sum([&](std::size_t k, const Vec3& F, const Vec3&) {
+    for (int c = 0; c < 3; ++c) out[3 * id_[k] + c] = F[c] + mass_[k] * opt_.gravity[c];
+  });
+}
+
+void Simulation::get_torques(double* out) const {
+  for_each_contact_sum([&](std::size_t k, const Vec3&, const Vec3& T) {
+    for (int c = 0; c < 3; ++c) out[3 * id_[k] + c] = T[c];
+  });
 }
 
 void Simulation::get_radii(double* out) const {
@@ -508,7 +551,7 @@ Energy Simulation::energy() const {
 
 std::vector<ContactInfo> Simulation::contacts() const {
   std::vector<ContactInfo> out;
-  if (pair_offset_.size() != n_ + 1) return out;
+  if (near_offset_.size() != n_ + 1) return out;
   auto torque = [](const std::vector<double>& nxft, const std::vector<double>& roll, double r,
                    double overlap, std::size_t e) {
     Vec3 t = Vec3::Zero();
@@ -520,9 +563,9 @@ std::vector<ContactInfo> Simulation::contacts() const {
     return xi.empty() ? Vec3(Vec3::Zero()) : Vec3(vec3(xi.data(), e));
   };
   for (std::size_t i = 0; i < n_; ++i) {
-    for (Index e = pair_offset_[i]; e < pair_offset_[i + 1]; ++e) {
+    for (Index e = near_offset_[i]; e < near_offset_[i + 1]; ++e) {
       if (!(pair_overlap_[e] > 0)) continue;
-      out.push_back({id_[i], id_[pair_partner_[e]], -1, pair_overlap_[e],
+      out.push_back({id_[i], id_[near_partner_[e]], -1, pair_overlap_[e],
                      vec3(pair_force_.data(), e),
                      torque(pair_nxft_, pair_roll_, radius_[i], pair_overlap_[e], e),
                      history(pair_xi_, e)});

@@ -74,6 +74,7 @@ const char* phase_name(Phase p);
 namespace detail {
 template <class Law, bool MovingWalls>
 struct Stepper;
+struct ContactSums;
 }
 
 // Adds the time since the previous lap to the named phase (steady clock, ~20 ns a lap).
@@ -146,7 +147,7 @@ class Simulation {
   void get_velocities(double* out) const { gather_by_id(v_.data(), out); }
   void get_angular_velocities(double* out) const { gather_by_id(w_.data(), out); }
   void get_forces(double* out) const;   // contact forces + m g of the last step
-  void get_torques(double* out) const { gather_by_id(t_.data(), out); }
+  void get_torques(double* out) const;  // contact torques of the last step
   void get_radii(double* out) const;
   void get_masses(double* out) const;
   void get_materials(int* out) const;
@@ -162,6 +163,7 @@ class Simulation {
   // Pairs in the current list (ids, lower first): all pairs within r_i + r_j + skin.
   std::vector<std::array<Id, 2>> neighbor_pairs() const;
   long rebuild_count() const { return rebuilds_; }
+  long near_refresh_count() const { return refreshes_; }
   // Seconds spent per phase of the loop since construction (see Phase).
   const std::array<double, int(Phase::Count)>& phase_seconds() const { return phase_seconds_; }
   double skin() const;
@@ -169,8 +171,11 @@ class Simulation {
  private:
   template <class Law, bool MovingWalls>
   friend struct detail::Stepper;
+  friend struct detail::ContactSums;
 
   void gather_by_id(const double* src, double* out) const;
+  template <class Out>
+  void for_each_contact_sum(Out&& out) const;
   void scatter_by_id(const double* in, double* dst);
   void prepare_run();
   void mix_pairs();
@@ -193,18 +198,26 @@ class Simulation {
 
   // Particles (internal order).
   std::size_t n_ = 0;
-  std::vector<double> x_, v_, w_, f_, t_, x_ref_;
+  std::vector<double> x_, v_, w_;
   std::vector<double> radius_, mass_, inv_mass_, inv_inertia_, dissipated_;
   std::vector<int> material_;
   std::vector<Id> id_;
   std::vector<Index> index_of_;  // id -> internal index
 
-  // Half neighbour list: each pair once, owned by the lower id; entries of an owner sorted by
-  // partner id, and a reverse index sorted by owner id, so every particle sums its contacts in
-  // ascending partner-id order whatever the internal order and thread count.
-  std::vector<Index> pair_offset_, pair_partner_, pair_owner_, rev_offset_, rev_entry_;
-  std::vector<Index> wall_offset_, wall_index_;
-  // Per-entry history (tangential displacement) and results of the last evaluation.
+  // Two-level neighbour list (docs/architecture.md). The Verlet list holds every pair within
+  // r_i + r_j + skin, each once, owned by the lower id, an owner's partners sorted by id. The
+  // near list, refreshed from it when particles may have moved by a tenth of the skin, holds
+  // the pairs within r_i + r_j + skin/10 and all contact state; the step loop touches only it.
+  // Its entries keep the owner order and the partner-id order of the Verlet list, and a reverse
+  // index sorted by owner id lets every particle sum its contacts in an order fixed by ids:
+  // bit-identical results for any thread count and any rebuild schedule.
+  std::vector<Index> pair_offset_, pair_partner_;
+  std::vector<Index> near_offset_, near_owner_, near_partner_, near_rev_offset_, near_rev_;
+  std::vector<double> near_cut2_;  // (r_i + r_j)^2
+  // Near-wall list: (particle, wall) entries within r + skin, by particle.
+  std::vector<Index> wall_offset_, wall_index_, wall_owner_;
+  // Per-entry contact state: history (tangential displacement), overlap, and the results of the
+  // last evaluation (force on the owner, n x F_t, rolling vector); zero while not touching.
   std::vector<double> pair_xi_, pair_force_, pair_nxft_, pair_roll_, pair_overlap_;
   std::vector<double> wall_xi_, wall_force_, wall_nxft_, wall_roll_, wall_overlap_;
   // 1 while an entry's spheres touch (same as overlap > 0; a byte is 8x cheaper to stream).
@@ -212,26 +225,27 @@ class Simulation {
   // Roughness state per entry (6 values, step.hpp): tilt or tilted normal, facet offset,
   // first-touch step, spin term.
   std::vector<double> pair_rough_, wall_rough_;
-  // Neighbour-list bookkeeping.
+  // Neighbour-list bookkeeping: bounds on the distance any particle moved since the last Verlet
+  // rebuild and since the last near-list refresh (sums of dt max|v| over the steps).
   bool list_valid_ = false;
   double list_skin_ = 0;
-  double max_disp2_ = 0;             // max squared displacement since the last rebuild
+  double moved_ = 0, moved_near_ = 0;
   std::vector<Vec3> plane_point_ref_, plane_normal_ref_;
   double plane_reach_ = 0;           // max distance from a plane's point to the particles
-  long rebuilds_ = 0;
+  long rebuilds_ = 0, refreshes_ = 0;
   std::array<double, int(Phase::Count)> phase_seconds_{};
-  // Scratch reused by rebuilds (no allocation once warm).
-  std::vector<Index> cell_start_, cell_of_, perm_, old_offset_, old_wall_offset_, old_index_of_;
-  std::vector<Id> old_partner_id_;
-  std::vector<Index> old_wall_index_;  // (previous list, during a rebuild)
-  // Per-entry state carried across rebuilds: history, overlap, force, n x F, rolling vector,
-  // roughness.
+  // Scratch reused by rebuilds and steps (no allocation once warm).
+  std::vector<Index> cell_start_, cell_of_, perm_, old_index_of_, active_;
+  std::vector<Index> old_near_offset_, old_wall_offset_, old_wall_index_;
+  std::vector<Id> old_near_partner_id_;
+  // Per-entry state carried across refreshes: history, overlap, force, n x F, rolling vector,
+  // roughness, touching flag.
   static constexpr std::size_t kEntryArrays = 6;
   static constexpr std::size_t kEntryWidth[kEntryArrays] = {3, 1, 3, 3, 3, 6};
   std::vector<double>* pair_state(std::size_t k);
   std::vector<double>* wall_state(std::size_t k);
   std::array<std::vector<double>, kEntryArrays> old_pair_state_, old_wall_state_;
-  std::vector<Index> pair_from_old_, wall_from_old_;
+  std::vector<std::uint8_t> old_touch_;
   std::vector<double> scratch_;
   std::vector<int> scratch_int_;
   std::vector<Id> scratch_id_;
@@ -245,10 +259,64 @@ class Simulation {
   bool has_rolling_ = false;
   bool has_rough_ = false;
 
-  // The rebuild (neighbor.cpp).
+  // The rebuild and the near-list refresh (neighbor.cpp).
   void rebuild(bool keep_history);
+  bool needs_refresh() const { return 2.0 * moved_near_ > near_skin(); }
+  double near_skin() const { return 0.1 * list_skin_; }
+  // Moves the near list and its state aside, the partners as ids (before a re-sort).
+  void stash_near();
+  // Builds the near list from the Verlet list; with `transfer`, carries the stashed state over
+  // by (owner id, partner id); `reordered`: the particles were re-sorted since the stash.
+  // A touching entry that does not carry over (its spheres jumped apart by more than the skin
+  // in one step) has opened: its spring energy is booked as lost, as the step would have.
+  void refresh_near(bool transfer, bool reordered);
+  // The energy a contact loses when it opens (its tangential spring; step.hpp releases).
+  double spring_energy(int material_a, int material_b, const std::vector<double>& xi,
+                       std::size_t e) const;
   void size_entry_buffers();
   void sort_by_cell(double cell_size, const Vec3& lo, const std::array<long, 3>& dims);
 };
+
+namespace detail {
+
+// The contact force and torque on one particle, summed from the per-entry results in an order
+// fixed by ids: its walls, the entries it owns (partners by id), the entries it is the partner
+// of (owners by id). The step loop and the accessors share it, so get_forces() returns the
+// forces the last step used, bit for bit.
+struct ContactSums {
+  const Index *woff, *noff, *roff, *rev;
+  const double *r, *wf, *wn, *wr, *wo, *pf, *pn, *pr, *po;
+
+  explicit ContactSums(const Simulation& s)
+      : woff(s.wall_offset_.data()), noff(s.near_offset_.data()), roff(s.near_rev_offset_.data()),
+        rev(s.near_rev_.data()), r(s.radius_.data()), wf(s.wall_force_.data()),
+        wn(s.wall_nxft_.data()), wr(s.wall_roll_.data()), wo(s.wall_overlap_.data()),
+        pf(s.pair_force_.data()), pn(s.pair_nxft_.data()), pr(s.pair_roll_.data()),
+        po(s.pair_overlap_.data()) {}
+
+  // kWallLever: walls store n x F_t; kPairLever: pairs store n x F; kRolling: rolling vectors.
+  template <bool kWallLever, bool kPairLever, bool kRolling>
+  void at(Index k, Vec3& F, Vec3& T) const {
+    const double rk = r[k];
+    for (Index e = woff[k]; e < woff[k + 1]; ++e) {
+      F += vec3(wf, e);
+      if constexpr (kWallLever) T -= (rk - 0.5 * wo[e]) * vec3(wn, e);  // (1.19)
+      if constexpr (kRolling) T += rk * vec3(wr, e);                     // (1.20)
+    }
+    for (Index q = noff[k]; q < noff[k + 1]; ++q) {
+      F += vec3(pf, q);
+      if constexpr (kPairLever) T -= (rk - 0.5 * po[q]) * vec3(pn, q);
+      if constexpr (kRolling) T += rk * vec3(pr, q);
+    }
+    for (Index p = roff[k]; p < roff[k + 1]; ++p) {
+      const Index q = rev[p];
+      F -= vec3(pf, q);
+      if constexpr (kPairLever) T -= (rk - 0.5 * po[q]) * vec3(pn, q);
+      if constexpr (kRolling) T -= rk * vec3(pr, q);
+    }
+  }
+};
+
+}  // namespace detail
 
 }  // namespace tsubu

@@ -1,14 +1,19 @@
 // The time loop, written once as a template over the contact law and the wall motion. Each
 // specialisation is instantiated in registry.cpp; a run picks one when it starts.
 //
-// One step (symplectic Euler, 2.2) is two parallel passes: a contact pass over owners (forces
-// from x^n, v^n, w^n, history updated, each owner's share summed), then a pass over particles
-// that adds the reactions and advances v^{n+1} = v^n + dt F/m, w^{n+1} = w^n + dt T/I,
-// x^{n+1} = x^n + dt v^{n+1}. Every particle's sum runs over its partners in an order fixed by
-// ids, so results are bit-identical for any thread count and any rebuild schedule.
+// One step (symplectic Euler, 2.2) is two passes. The contact pass runs over the near list
+// (pairs within r_i + r_j + skin/10) and the near-wall list as flat arrays: a branch-free scan
+// compacts the entries in contact (or just released) into a list, and only those are evaluated;
+// each entry's result is stored with it. The particle pass then sums every particle's entries in
+// an order fixed by ids (ContactSums) and advances v^{n+1} = v^n + dt F/m, w^{n+1} = w^n + dt T/I,
+// x^{n+1} = x^n + dt v^{n+1}. No per-particle force arrays are streamed, and results are
+// bit-identical for any thread count and any rebuild schedule.
 #pragma once
 #include <algorithm>
 #include <cmath>
+#ifdef _OPENMP
+#include <omp.h>
+#endif
 
 #include "contact/law.hpp"
 #include "contact/roughness.hpp"
@@ -32,14 +37,19 @@ struct Stepper {
     const double dt = s.dt_;
     PhaseTimer clock(s.phase_seconds_);
     for (long k = 0; k < steps; ++k) {
-      if (s.needs_rebuild()) s.rebuild(true);
+      if (s.needs_rebuild()) {
+        s.rebuild(true);
+      } else if (s.needs_refresh()) {
+        s.stash_near();
+        s.refresh_near(true, false);
+      }
       clock.lap(Phase::Neighbors);
       double worst = 0;
       const bool bad = contact_pass(s, dt, worst);
       clock.lap(Phase::Contacts);
       if (!(worst <= s.opt_.max_overlap)) s.report_overlap(dt);
       if (bad) s.report_nonfinite();
-      if (finish_pass(s, dt)) s.report_nonfinite_velocity();
+      if (particle_pass(s, dt)) s.report_nonfinite_velocity();
       if constexpr (MovingWalls) s.move_planes(dt);
       ++s.step_;
       s.time_ += dt;
@@ -148,245 +158,294 @@ struct Stepper {
     n = np;
   }
 
-  // Pass 1, over owners: every pair entry (owned by the lower id) and every near-wall entry is
-  // evaluated; each entry's result is stored for its partner, and the owner's own share is
-  // summed in registers (partners in ascending id order, then walls) into f_, t_. Each entry
-  // and each owner is written by one thread only. Returns true if some owner's sum is not
-  // finite (which catches any non-finite contact force).
+  // Everything the contact pass reads and writes, unpacked once per step.
+  struct Pass {
+    const double *x, *v, *w, *r, *m, *inv_i;
+    const int* mat;
+    const Id* ids;
+    const Index *own, *par, *wown, *wall;
+    const double* cut2;
+    double *xi, *force, *nxft, *roll, *overlap, *rough;
+    double *wxi, *wforce, *wnxft, *wroll, *woverlap, *wrough;
+    std::uint8_t *touch, *wtouch;
+    double* diss;
+    const Plane* planes;
+    const PairTable* table;
+    std::uint64_t step, seed;
+    double dt;
+
+    explicit Pass(Simulation& s, double dt_)
+        : x(s.x_.data()), v(s.v_.data()), w(s.w_.data()), r(s.radius_.data()),
+          m(s.mass_.data()), inv_i(s.inv_inertia_.data()), mat(s.material_.data()),
+          ids(s.id_.data()), own(s.near_owner_.data()), par(s.near_partner_.data()),
+          wown(s.wall_owner_.data()), wall(s.wall_index_.data()), cut2(s.near_cut2_.data()),
+          xi(s.pair_xi_.data()), force(s.pair_force_.data()), nxft(s.pair_nxft_.data()),
+          roll(s.pair_roll_.data()), overlap(s.pair_overlap_.data()),
+          rough(s.pair_rough_.data()), wxi(s.wall_xi_.data()), wforce(s.wall_force_.data()),
+          wnxft(s.wall_nxft_.data()), wroll(s.wall_roll_.data()),
+          woverlap(s.wall_overlap_.data()), wrough(s.wall_rough_.data()),
+          touch(s.pair_touch_.data()), wtouch(s.wall_touch_.data()),
+          diss(s.dissipated_.data()), planes(s.planes_.data()), table(&s.pairs_),
+          step(std::uint64_t(s.step_)), seed(s.opt_.seed), dt(dt_) {}
+  };
+
+  // Ends a pair contact: its results go to zero and its spring energy is booked as lost.
+  static double end_pair(const Pass& c, Index q, const PairParams& params, const Vec3& d,
+                         double rs, double dist2) {
+    double lost = 0;
+    c.touch[q] = 0;
+    c.overlap[q] = 0;
+    vec3(c.force, q).setZero();
+    if constexpr (kHistory) release(params, c.xi + 3 * q, lost);
+    if constexpr (kTangential || kRough) vec3(c.nxft, q).setZero();
+    if constexpr (kRolling) vec3(c.roll, q).setZero();
+    if constexpr (kRough) {
+      if (params.roughness > 0) {  // a facet spring still loaded is lost with it
+        const double o = rough_pair_overlap(c.rough + kRoughWidth * q, d, rs - std::sqrt(dist2));
+        if (o > 0) lost += 0.5 * params.kn * o * o;
+      }
+    }
+    (void)d;
+    (void)rs;
+    (void)dist2;
+    return lost;
+  }
+
+  // One near-pair entry that touches or has just stopped touching. Returns the energy it lost
+  // this step; raises `worst` to its overlap ratio.
+  static double pair_entry(const Pass& c, Index q, double& worst) {
+    const Index i = c.own[q], j = c.par[q];
+    const double ri = c.r[i], rj = c.r[j], dt = c.dt;
+    const Vec3 d = vec3(c.x, i) - vec3(c.x, j);
+    const double rs = ri + rj;
+    const double dist2 = d.squaredNorm();
+    const PairParams& params = (*c.table)(c.mat[i], c.mat[j]);
+    if (dist2 >= c.cut2[q]) return end_pair(c, q, params, d, rs, dist2);  // (1.10)
+    ContactGeometry g;
+    const double dist = std::sqrt(dist2);
+    g.delta = rs - dist;
+    const Vec3 n = d / dist;
+    g.n = n;
+    worst = std::max(worst, g.delta / std::min(ri, rj));
+    g.m_eff = c.m[i] * c.m[j] / (c.m[i] + c.m[j]);
+    const Vec3 vrel = vec3(c.v, i) - vec3(c.v, j);
+    if constexpr (kTorque) {
+      g.ci = ri - 0.5 * g.delta;
+      g.cj = rj - 0.5 * g.delta;
+    }
+    bool tilted = false;
+    if constexpr (kRough) {
+      if (params.roughness > 0) {
+        const ContactStream stream{c.seed, std::uint64_t(c.ids[i]), std::uint64_t(c.ids[j]),
+                                   c.step};
+        double virtual_overlap = 0;
+        const Vec3 spin = (g.ci * vec3(c.w, i) + g.cj * vec3(c.w, j)).cross(n);
+        g.n = rough_pair(params, n, d, g.delta, vrel, spin, g.m_eff, c.touch[q],
+                         c.rough + kRoughWidth * q, stream, dt, virtual_overlap);
+        if (!(virtual_overlap > 0))  // not (or no longer) pressed across the facet
+          return c.touch[q] ? end_pair(c, q, params, d, rs, dist2) : 0.0;
+        g.delta = virtual_overlap;
+        tilted = true;
+      }
+    }
+    if (!tilted) {
+      g.vn = vrel.dot(n);
+      if constexpr (kTangential)
+        g.vt = vrel - g.vn * n - (g.ci * vec3(c.w, i) + g.cj * vec3(c.w, j)).cross(n);
+    } else {
+      // Contact points on the line of centres; normal and tangential parts relative to n'.
+      const Vec3 spin = (g.ci * vec3(c.w, i) + g.cj * vec3(c.w, j)).cross(n);
+      const Vec3 vcp = vrel - spin;
+      g.vn = vcp.dot(g.n);
+      if constexpr (kTangential) g.vt = vcp - g.vn * g.n;
+    }
+    if constexpr (kRolling) {
+      g.w_rel = vec3(c.w, i) - vec3(c.w, j);
+      g.ri = ri;
+      g.rj = rj;
+      g.spin_mobility = ri * c.inv_i[i] + rj * c.inv_i[j];
+    }
+    ContactResult res = evaluate(g, params, dt, c.xi + 3 * q);
+    c.touch[q] = 1;
+    c.overlap[q] = rs - dist;  // geometric: it sets the levers c = r - overlap/2
+    vec3(c.force, q) = res.force;
+    // (1.19) with the contact-point lever c_i along the line of centres; with a tilted normal
+    // the whole force has a moment about the centres (n x F), which keeps angular momentum exact.
+    if constexpr (kTangential || kRough)
+      vec3(c.nxft, q) = tilted ? Vec3(n.cross(res.force)) : res.n_cross_ft;
+    if constexpr (kRolling) {
+      vec3(c.roll, q) = res.roll;
+      res.power -= res.roll.dot(ri * vec3(c.w, i) - rj * vec3(c.w, j));
+    }
+    return res.power * dt;
+  }
+
+  // One near-wall entry that touches, or touched last step. Returns the energy it lost.
+  static double wall_entry(const Pass& c, Index e, double& worst) {
+    const Index i = c.wown[e];
+    const Plane& P = c.planes[c.wall[e]];
+    const PairParams& params = (*c.table)(c.mat[i], P.material);
+    const Vec3 xi_pos = vec3(c.x, i);
+    const double ri = c.r[i], dt = c.dt;
+    double delta = ri - P.normal.dot(xi_pos - P.point);  // (3.1), signed: a half-space
+    Vec3 n = P.normal;
+    if constexpr (kRough) {
+      if (params.roughness > 0) {
+        Vec3 vw = vec3(c.v, i);
+        if constexpr (MovingWalls)
+          vw -= P.velocity + P.angular_velocity.cross(xi_pos - ri * n - P.point);
+        const ContactStream stream{c.seed, std::uint64_t(c.ids[i]),
+                                   ContactStream::kWallTag + std::uint64_t(c.wall[e]), c.step};
+        rough_wall(params, P, xi_pos, ri, vw, c.m[i], c.wtouch[e], c.wrough + kRoughWidth * e,
+                   stream, dt, n, delta);
+      }
+    }
+    if (delta <= 0) {
+      double lost = 0;
+      if (c.wtouch[e]) {
+        c.wtouch[e] = 0;
+        c.woverlap[e] = 0;
+        vec3(c.wforce, e).setZero();
+        if constexpr (kHistory) release(params, c.wxi + 3 * e, lost);
+        if constexpr (kTangential) vec3(c.wnxft, e).setZero();
+        if constexpr (kRolling) vec3(c.wroll, e).setZero();
+      }
+      return lost;
+    }
+    ContactGeometry g;
+    g.n = n;
+    g.delta = delta;
+    worst = std::max(worst, delta / ri);
+    g.m_eff = c.m[i];
+    g.ci = ri - 0.5 * delta;
+    g.cj = 0;
+    Vec3 vrel = vec3(c.v, i);
+    if constexpr (MovingWalls) {
+      const Vec3 contact = xi_pos - g.ci * g.n;
+      vrel -= P.velocity + P.angular_velocity.cross(contact - P.point);
+    }
+    g.vn = vrel.dot(g.n);
+    if constexpr (kTangential) g.vt = vrel - g.vn * g.n - (g.ci * vec3(c.w, i)).cross(g.n);
+    if constexpr (kRolling) {
+      g.w_rel = vec3(c.w, i);
+      if constexpr (MovingWalls) g.w_rel -= P.angular_velocity;
+      g.ri = ri;
+      g.rj = 0;
+      g.spin_mobility = ri * c.inv_i[i];
+    }
+    ContactResult res = evaluate(g, params, dt, c.wxi + 3 * e);
+    c.wtouch[e] = 1;
+    c.woverlap[e] = delta;
+    vec3(c.wforce, e) = res.force;
+    // The lever runs along the (facet) normal: the wall's surface.
+    if constexpr (kTangential) vec3(c.wnxft, e) = res.n_cross_ft;
+    if constexpr (kRolling) {
+      vec3(c.wroll, e) = res.roll;
+      res.power -= ri * res.roll.dot(g.w_rel);
+    }
+    return res.power * dt;
+  }
+
+  // [lo, hi) of part t of nt of an entry list sorted by owner, cut at owner boundaries, so that
+  // each owner's entries (and its dissipation sum) belong to one thread.
+  static Index part_start(const Index* owner, Index count, int t, int nt) {
+    Index b = Index((std::int64_t(count) * t) / nt);
+    while (b > 0 && b < count && owner[b - 1] == owner[b]) --b;
+    return b;
+  }
+
+  // Scans entries [lo, hi) without branches, keeping in `act` those that pass `keep`; returns
+  // how many.
+  template <class Keep>
+  static Index compact(Index lo, Index hi, Index* act, Keep&& keep) {
+    Index count = 0;
+    for (Index q = lo; q < hi; ++q) {
+      act[count] = q;
+      count += keep(q) ? 1 : 0;
+    }
+    return count;
+  }
+
+  // Pass 1: every near pair and near-wall entry in contact, or that was in contact last step,
+  // is evaluated (or ended) and its result stored with it; each owner books the energy its
+  // entries lost. Returns true if some contact result is not finite.
   static bool contact_pass(Simulation& s, double dt, double& worst_out) {
-    const Index n = static_cast<Index>(s.n_);
-    const double *x = s.x_.data(), *v = s.v_.data(), *w = s.w_.data();
-    const double *r = s.radius_.data(), *m = s.mass_.data(), *inv_i = s.inv_inertia_.data();
-    const int* mat = s.material_.data();
-    const Index *off = s.pair_offset_.data(), *partner = s.pair_partner_.data();
-    double *xi = s.pair_xi_.data(), *force = s.pair_force_.data(), *nxft = s.pair_nxft_.data();
-    double *roll = s.pair_roll_.data(), *overlap = s.pair_overlap_.data();
-    const Index *woff = s.wall_offset_.data(), *wall = s.wall_index_.data();
-    double *wxi = s.wall_xi_.data(), *wforce = s.wall_force_.data();
-    double *wnxft = s.wall_nxft_.data(), *wroll = s.wall_roll_.data();
-    double* woverlap = s.wall_overlap_.data();
-    std::uint8_t *touch = s.pair_touch_.data(), *wtouch = s.wall_touch_.data();
-    double *rough = s.pair_rough_.data(), *wrough = s.wall_rough_.data();
-    const Id* ids = s.id_.data();
-    const std::uint64_t step = std::uint64_t(s.step_), seed = s.opt_.seed;
-    double *f = s.f_.data(), *t = s.t_.data(), *diss = s.dissipated_.data();
-    const Plane* planes = s.planes_.data();
-    const PairTable& table = s.pairs_;
+    const Pass c(s, dt);
+    const Index np = Index(s.near_partner_.size()), nw = Index(s.wall_index_.size());
+    Index* active = s.active_.data();
+    const int threads = static_cast<int>(s.n_) >= s.opt_.parallel_min ? s.threads() : 1;
     double worst = 0;
     int bad = 0;
-#pragma omp parallel for schedule(static) num_threads(s.threads()) if (n >= s.opt_.parallel_min) reduction(max : worst, bad)
-    for (Index i = 0; i < n; ++i) {
-      const Vec3 xi_pos = vec3(x, i);
-      const double ri = r[i];
-      Vec3 F = Vec3::Zero(), T = Vec3::Zero();
-      double lost = 0;
-      for (Index e = off[i]; e < off[i + 1]; ++e) {
-        const Index j = partner[e];
-        const Vec3 d = xi_pos - vec3(x, j);
-        const double rs = ri + r[j];
-        const double dist2 = d.squaredNorm();
-        if (dist2 >= rs * rs) {  // (1.10): no contact; the history ends with it
-          if (touch[e]) {
-            touch[e] = 0;
-            overlap[e] = 0;
-            const PairParams& params = table(mat[i], mat[j]);
-            if constexpr (kHistory) release(params, xi + 3 * e, lost);
-            if constexpr (kRough) {
-              if (params.roughness > 0) {  // a facet spring still loaded is lost with it
-                const double o = rough_pair_overlap(rough + kRoughWidth * e, d,
-                                                    rs - std::sqrt(dist2));
-                if (o > 0) lost += 0.5 * params.kn * o * o;
-              }
-            }
-          }
-          continue;
-        }
-        ContactGeometry g;
-        const double dist = std::sqrt(dist2);
-        g.delta = rs - dist;
-        const Vec3 n = d / dist;
-        g.n = n;
-        worst = std::max(worst, g.delta / std::min(ri, r[j]));
-        g.m_eff = m[i] * m[j] / (m[i] + m[j]);
-        const PairParams& params = table(mat[i], mat[j]);
-        const Vec3 vrel = vec3(v, i) - vec3(v, j);
-        if constexpr (kTorque) {
-          g.ci = ri - 0.5 * g.delta;
-          g.cj = r[j] - 0.5 * g.delta;
-        }
-        bool tilted = false;
-        double* st = nullptr;
-        if constexpr (kRough) {
-          if (params.roughness > 0) {
-            st = rough + kRoughWidth * e;
-            const ContactStream stream{seed, std::uint64_t(ids[i]), std::uint64_t(ids[j]), step};
-            double virtual_overlap = 0;
-            const Vec3 spin = (g.ci * vec3(w, i) + g.cj * vec3(w, j)).cross(n);
-            g.n = rough_pair(params, n, d, g.delta, vrel, spin, g.m_eff, touch[e], st, stream, dt,
-                             virtual_overlap);
-            if (!(virtual_overlap > 0)) {  // not (or no longer) pressed across the facet
-              if (touch[e]) {
-                touch[e] = 0;
-                overlap[e] = 0;
-                if constexpr (kHistory) release(params, xi + 3 * e, lost);
-              }
-              continue;
-            }
-            g.delta = virtual_overlap;
-            tilted = true;
-          }
-        }
-        if (!tilted) {
-          g.vn = vrel.dot(n);
-          if constexpr (kTangential)
-            g.vt = vrel - g.vn * n - (g.ci * vec3(w, i) + g.cj * vec3(w, j)).cross(n);
-        } else {
-          // Contact points on the line of centres; normal and tangential parts relative to n'.
-          const Vec3 spin = (g.ci * vec3(w, i) + g.cj * vec3(w, j)).cross(n);
-          const Vec3 vcp = vrel - spin;
-          g.vn = vcp.dot(g.n);
-          if constexpr (kTangential) g.vt = vcp - g.vn * g.n;
-        }
-        if constexpr (kRolling) {
-          g.w_rel = vec3(w, i) - vec3(w, j);
-          g.ri = ri;
-          g.rj = r[j];
-          g.spin_mobility = ri * inv_i[i] + r[j] * inv_i[j];
-        }
-        ContactResult res = evaluate(g, params, dt, xi + 3 * e);
-        touch[e] = 1;
-        overlap[e] = rs - dist;  // geometric: it sets the levers c = r - overlap/2
-        vec3(force, e) = res.force;
-        F += res.force;
-        if constexpr (kTangential || kRough) {
-          // (1.19) with the contact-point lever c_i along the line of centres; with a tilted
-          // normal the whole force has a moment about the centres (n x F), which keeps
-          // angular momentum exact.
-          const Vec3 nxf = tilted ? Vec3(n.cross(res.force)) : res.n_cross_ft;
-          vec3(nxft, e) = nxf;
-          T -= g.ci * nxf;
-        }
-        if constexpr (kRolling) {
-          vec3(roll, e) = res.roll;
-          T += ri * res.roll;  // (1.20)
-          res.power -= res.roll.dot(ri * vec3(w, i) - r[j] * vec3(w, j));
-        }
-        lost += res.power * dt;  // the owner books the pair's dissipation
+#pragma omp parallel num_threads(threads) reduction(max : worst, bad)
+    {
+#ifdef _OPENMP
+      const int t = omp_get_thread_num(), nt = omp_get_num_threads();
+#else
+      const int t = 0, nt = 1;
+#endif
+      const Index lo = part_start(c.own, np, t, nt), hi = part_start(c.own, np, t + 1, nt);
+      const Index count = compact(lo, hi, active + lo, [&](Index q) {
+        const Vec3 d = vec3(c.x, c.own[q]) - vec3(c.x, c.par[q]);
+        return (d.squaredNorm() < c.cut2[q]) | (c.touch[q] != 0);
+      });
+      for (Index a = 0; a < count; ++a) {
+        const Index q = active[lo + a];
+        const double lost = pair_entry(c, q, worst);
+        if (lost != 0) c.diss[c.own[q]] += lost;
+        const double sum = vec3(c.force, q).sum();
+        if (!(sum - sum == 0)) bad = 1;  // inf or NaN (Eigen's allFinite() is not inlined)
       }
-      for (Index e = woff[i]; e < woff[i + 1]; ++e) {
-        const Plane& P = planes[wall[e]];
-        const PairParams& params = table(mat[i], P.material);
-        double delta = ri - P.normal.dot(xi_pos - P.point);  // (3.1), signed: a half-space
-        Vec3 n = P.normal;
-        if constexpr (kRough) {
-          if (params.roughness > 0) {
-            Vec3 vw = vec3(v, i);
-            if constexpr (MovingWalls)
-              vw -= P.velocity + P.angular_velocity.cross(xi_pos - ri * n - P.point);
-            const ContactStream stream{seed, std::uint64_t(ids[i]),
-                                       ContactStream::kWallTag + std::uint64_t(wall[e]), step};
-            rough_wall(params, P, xi_pos, ri, vw, m[i], wtouch[e], wrough + kRoughWidth * e,
-                       stream, dt, n, delta);
-          }
-        }
-        if (delta <= 0) {
-          if (wtouch[e]) {
-            wtouch[e] = 0;
-            woverlap[e] = 0;
-            if constexpr (kHistory) release(params, wxi + 3 * e, lost);
-          }
-          continue;
-        }
-        ContactGeometry g;
-        g.n = n;
-        g.delta = delta;
-        worst = std::max(worst, delta / ri);
-        g.m_eff = m[i];
-        g.ci = ri - 0.5 * delta;
-        g.cj = 0;
-        Vec3 vrel = vec3(v, i);
-        if constexpr (MovingWalls) {
-          const Vec3 contact = xi_pos - g.ci * g.n;
-          vrel -= P.velocity + P.angular_velocity.cross(contact - P.point);
-        }
-        g.vn = vrel.dot(g.n);
-        if constexpr (kTangential) g.vt = vrel - g.vn * g.n - (g.ci * vec3(w, i)).cross(g.n);
-        if constexpr (kRolling) {
-          g.w_rel = vec3(w, i);
-          if constexpr (MovingWalls) g.w_rel -= P.angular_velocity;
-          g.ri = ri;
-          g.rj = 0;
-          g.spin_mobility = ri * inv_i[i];
-        }
-        ContactResult res = evaluate(g, params, dt, wxi + 3 * e);
-        wtouch[e] = 1;
-        woverlap[e] = delta;
-        vec3(wforce, e) = res.force;
-        F += res.force;
-        if constexpr (kTangential) {
-          vec3(wnxft, e) = res.n_cross_ft;
-          T -= g.ci * res.n_cross_ft;  // lever along the (facet) normal: the wall's surface
-        }
-        if constexpr (kRolling) {
-          vec3(wroll, e) = res.roll;
-          T += ri * res.roll;
-          res.power -= ri * res.roll.dot(g.w_rel);
-        }
-        lost += res.power * dt;
+#pragma omp barrier
+      // Walls after pairs, all threads: an owner's dissipation sum keeps one order.
+      const Index wlo = part_start(c.wown, nw, t, nt), whi = part_start(c.wown, nw, t + 1, nt);
+      Index* wact = active + np;
+      const Index wcount = compact(wlo, whi, wact + wlo, [&](Index e) {
+        const Plane& P = c.planes[c.wall[e]];
+        const double gap = P.normal.dot(vec3(c.x, c.wown[e]) - P.point) - c.r[c.wown[e]];
+        return (gap < 0) | (c.wtouch[e] != 0);
+      });
+      for (Index a = 0; a < wcount; ++a) {
+        const Index e = wact[wlo + a];
+        const double lost = wall_entry(c, e, worst);
+        if (lost != 0) c.diss[c.wown[e]] += lost;
+        const double sum = vec3(c.wforce, e).sum();
+        if (!(sum - sum == 0)) bad = 1;
       }
-      vec3(f, i) = F;
-      if constexpr (kTorque) vec3(t, i) = T;
-      if (lost != 0) diss[i] += lost;
-      const double sum = F.sum() + T.sum();
-      if (!(sum - sum == 0)) bad = 1;  // inf or NaN (Eigen's allFinite() is not inlined)
     }
     worst_out = worst;
     return bad != 0;
   }
 
-  // Pass 2, over particles: adds the reactions of the entries where the particle is the
-  // partner (owners in ascending id order) to its own sum, stores the total in f_, t_, and
-  // advances it (2.2): v += dt (F/m + g), w += dt T/I, x += dt v. Returns true if a new
-  // velocity is not finite.
-  static bool finish_pass(Simulation& s, double dt) {
+  // Pass 2, over particles: sums each particle's contacts (ContactSums, order fixed by ids) and
+  // advances it (2.2): v += dt (F/m + g), w += dt T/I, x += dt v. Bounds the distance moved for
+  // the neighbour lists by dt max|v|. Returns true if a new velocity is not finite.
+  static bool particle_pass(Simulation& s, double dt) {
     const Index n = static_cast<Index>(s.n_);
     double *x = s.x_.data(), *v = s.v_.data(), *w = s.w_.data();
-    double *f = s.f_.data(), *t = s.t_.data();
-    const double *xr = s.x_ref_.data(), *r = s.radius_.data();
     const double *inv_m = s.inv_mass_.data(), *inv_i = s.inv_inertia_.data();
-    const Index *roff = s.rev_offset_.data(), *rent = s.rev_entry_.data();
-    const double *pf = s.pair_force_.data(), *pt = s.pair_nxft_.data(), *pr = s.pair_roll_.data();
-    const double* po = s.pair_overlap_.data();
-    const std::uint8_t* touch = s.pair_touch_.data();
+    const ContactSums sums(s);
     const Vec3 g = s.opt_.gravity;
-    double md = 0;
+    double vmax2 = 0;
     int bad = 0;
-#pragma omp parallel for schedule(static) num_threads(s.threads()) if (n >= s.opt_.parallel_min) reduction(max : md, bad)
+#pragma omp parallel for schedule(static) num_threads(s.threads()) if (n >= s.opt_.parallel_min) reduction(max : vmax2, bad)
     for (Index k = 0; k < n; ++k) {
-      Vec3 F = vec3(f, k);
-      Vec3 T = kTorque ? Vec3(vec3(t, k)) : Vec3::Zero();
-      const double rk = r[k];
-      for (Index q = roff[k]; q < roff[k + 1]; ++q) {
-        const Index e = rent[q];
-        if (!touch[e]) continue;
-        F -= vec3(pf, e);
-        if constexpr (kTangential || kRough) T -= (rk - 0.5 * po[e]) * vec3(pt, e);
-        if constexpr (kRolling) T -= rk * vec3(pr, e);
-      }
-      vec3(f, k) = F;
-      Vec3 vk = vec3(v, k) + dt * (F * inv_m[k] + g);
+      Vec3 F = Vec3::Zero(), T = Vec3::Zero();
+      sums.template at<kTangential, kTangential || kRough, kRolling>(k, F, T);
+      const Vec3 vk = vec3(v, k) + dt * (F * inv_m[k] + g);
       vec3(v, k) = vk;
+      double sum = vk.sum();
       if constexpr (kTorque) {
-        vec3(t, k) = T;
-        vec3(w, k) += (dt * inv_i[k]) * T;
+        const Vec3 wk = vec3(w, k) + (dt * inv_i[k]) * T;
+        vec3(w, k) = wk;
+        sum += wk.sum();
       }
-      const Vec3 xk = vec3(x, k) + dt * vk;
-      vec3(x, k) = xk;
-      md = std::max(md, (xk - vec3(xr, k)).squaredNorm());
-      const double sum = vk.sum();
+      vec3(x, k) += dt * vk;
+      vmax2 = std::max(vmax2, vk.squaredNorm());
       if (!(sum - sum == 0)) bad = 1;
     }
-    s.max_disp2_ = md;
+    const double moved = std::sqrt(vmax2) * dt;
+    s.moved_ += moved;
+    s.moved_near_ += moved;
     return bad != 0;
   }
 };
