@@ -322,7 +322,26 @@ void Simulation::refresh_near(bool transfer, bool reordered) {
     if (near_rev_offset_[i + 1] - near_rev_offset_[i] > 1)
       insertion_sort(near_rev_.data() + near_rev_offset_[i], near_rev_.data() + near_rev_offset_[i + 1],
                      [&](Index q) { return id_[near_owner_[q]]; });
-  active_.resize(m + wall_index_.size());  // pairs, then walls (step.hpp)
+  // 4. The near-wall entries, and the particles with entries.
+  bool moving = false;
+  for (const Plane& p : planes_) moving = moving || p.moving();
+  wall_near_offset_.resize(n + 1);
+  wall_near_offset_[0] = 0;
+  wall_near_.clear();
+  for (std::size_t i = 0; i < n; ++i) {
+    for (Index e = wall_offset_[i]; e < wall_offset_[i + 1]; ++e) {
+      const Plane& p = planes_[wall_index_[e]];
+      if (moving || wall_touch_[e] || p.normal.dot(vec3(x, i) - p.point) - r[i] < reach)
+        wall_near_.push_back(e);
+    }
+    wall_near_offset_[i + 1] = static_cast<Index>(wall_near_.size());
+  }
+  busy_.clear();
+  for (std::size_t i = 0; i < n; ++i)
+    if (wall_near_offset_[i + 1] > wall_near_offset_[i] || near_offset_[i + 1] > near_offset_[i] ||
+        near_rev_offset_[i + 1] > near_rev_offset_[i])
+      busy_.push_back(static_cast<Index>(i));
+  active_.resize(m + wall_near_.size());  // pairs, then walls (step.hpp)
   moved_near_ = 0;
   ++refreshes_;
 }

@@ -214,8 +214,12 @@ class Simulation {
   std::vector<Index> pair_offset_, pair_partner_;
   std::vector<Index> near_offset_, near_owner_, near_partner_, near_rev_offset_, near_rev_;
   std::vector<double> near_cut2_;  // (r_i + r_j)^2
-  // Near-wall list: (particle, wall) entries within r + skin, by particle.
-  std::vector<Index> wall_offset_, wall_index_, wall_owner_;
+  // Particles with near-pair or near-wall entries: the only ones whose contacts are summed.
+  std::vector<Index> busy_;
+  // Near-wall list: (particle, wall) entries within r + skin, by particle; they hold the wall
+  // contact state. The step loop reads the subset within r + skin/10 (all of them if a wall
+  // moves), refreshed with the near list: wall_near_ (entry indices, by particle).
+  std::vector<Index> wall_offset_, wall_index_, wall_owner_, wall_near_offset_, wall_near_;
   // Per-entry contact state: history (tangential displacement), overlap, and the results of the
   // last evaluation (force on the owner, n x F_t, rolling vector); zero while not touching.
   std::vector<double> pair_xi_, pair_force_, pair_nxft_, pair_roll_, pair_overlap_;
@@ -284,11 +288,11 @@ namespace detail {
 // of (owners by id). The step loop and the accessors share it, so get_forces() returns the
 // forces the last step used, bit for bit.
 struct ContactSums {
-  const Index *woff, *noff, *roff, *rev;
+  const Index *woff, *wnear, *noff, *roff, *rev;
   const double *r, *wf, *wn, *wr, *wo, *pf, *pn, *pr, *po;
 
   explicit ContactSums(const Simulation& s)
-      : woff(s.wall_offset_.data()), noff(s.near_offset_.data()), roff(s.near_rev_offset_.data()),
+      : woff(s.wall_near_offset_.data()), wnear(s.wall_near_.data()), noff(s.near_offset_.data()), roff(s.near_rev_offset_.data()),
         rev(s.near_rev_.data()), r(s.radius_.data()), wf(s.wall_force_.data()),
         wn(s.wall_nxft_.data()), wr(s.wall_roll_.data()), wo(s.wall_overlap_.data()),
         pf(s.pair_force_.data()), pn(s.pair_nxft_.data()), pr(s.pair_roll_.data()),
@@ -298,7 +302,8 @@ struct ContactSums {
   template <bool kWallLever, bool kPairLever, bool kRolling>
   void at(Index k, Vec3& F, Vec3& T) const {
     const double rk = r[k];
-    for (Index e = woff[k]; e < woff[k + 1]; ++e) {
+    for (Index p = woff[k]; p < woff[k + 1]; ++p) {
+      const Index e = wnear[p];
       F += vec3(wf, e);
       if constexpr (kWallLever) T -= (rk - 0.5 * wo[e]) * vec3(wn, e);  // (1.19)
       if constexpr (kRolling) T += rk * vec3(wr, e);                     // (1.20)

@@ -11,6 +11,7 @@
 #pragma once
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 #ifdef _OPENMP
 #include <omp.h>
 #endif
@@ -163,7 +164,7 @@ struct Stepper {
     const double *x, *v, *w, *r, *m, *inv_i;
     const int* mat;
     const Id* ids;
-    const Index *own, *par, *wown, *wall;
+    const Index *own, *par, *wown, *wall, *wnear;
     const double* cut2;
     double *xi, *force, *nxft, *roll, *overlap, *rough;
     double *wxi, *wforce, *wnxft, *wroll, *woverlap, *wrough;
@@ -178,7 +179,8 @@ struct Stepper {
         : x(s.x_.data()), v(s.v_.data()), w(s.w_.data()), r(s.radius_.data()),
           m(s.mass_.data()), inv_i(s.inv_inertia_.data()), mat(s.material_.data()),
           ids(s.id_.data()), own(s.near_owner_.data()), par(s.near_partner_.data()),
-          wown(s.wall_owner_.data()), wall(s.wall_index_.data()), cut2(s.near_cut2_.data()),
+          wown(s.wall_owner_.data()), wall(s.wall_index_.data()), wnear(s.wall_near_.data()),
+          cut2(s.near_cut2_.data()),
           xi(s.pair_xi_.data()), force(s.pair_force_.data()), nxft(s.pair_nxft_.data()),
           roll(s.pair_roll_.data()), overlap(s.pair_overlap_.data()),
           rough(s.pair_rough_.data()), wxi(s.wall_xi_.data()), wforce(s.wall_force_.data()),
@@ -348,9 +350,10 @@ struct Stepper {
 
   // [lo, hi) of part t of nt of an entry list sorted by owner, cut at owner boundaries, so that
   // each owner's entries (and its dissipation sum) belong to one thread.
-  static Index part_start(const Index* owner, Index count, int t, int nt) {
+  template <class Owner>
+  static Index part_start(Owner&& owner, Index count, int t, int nt) {
     Index b = Index((std::int64_t(count) * t) / nt);
-    while (b > 0 && b < count && owner[b - 1] == owner[b]) --b;
+    while (b > 0 && b < count && owner(b - 1) == owner(b)) --b;
     return b;
   }
 
@@ -371,7 +374,7 @@ struct Stepper {
   // entries lost. Returns true if some contact result is not finite.
   static bool contact_pass(Simulation& s, double dt, double& worst_out) {
     const Pass c(s, dt);
-    const Index np = Index(s.near_partner_.size()), nw = Index(s.wall_index_.size());
+    const Index np = Index(s.near_partner_.size()), nw = Index(s.wall_near_.size());
     Index* active = s.active_.data();
     const int threads = static_cast<int>(s.n_) >= s.opt_.parallel_min ? s.threads() : 1;
     double worst = 0;
@@ -383,7 +386,8 @@ struct Stepper {
 #else
       const int t = 0, nt = 1;
 #endif
-      const Index lo = part_start(c.own, np, t, nt), hi = part_start(c.own, np, t + 1, nt);
+      auto pair_owner = [&](Index q) { return c.own[q]; };
+      const Index lo = part_start(pair_owner, np, t, nt), hi = part_start(pair_owner, np, t + 1, nt);
       const Index count = compact(lo, hi, active + lo, [&](Index q) {
         const Vec3 d = vec3(c.x, c.own[q]) - vec3(c.x, c.par[q]);
         return (d.squaredNorm() < c.cut2[q]) | (c.touch[q] != 0);
@@ -397,15 +401,17 @@ struct Stepper {
       }
 #pragma omp barrier
       // Walls after pairs, all threads: an owner's dissipation sum keeps one order.
-      const Index wlo = part_start(c.wown, nw, t, nt), whi = part_start(c.wown, nw, t + 1, nt);
+      auto wall_owner = [&](Index p) { return c.wown[c.wnear[p]]; };
+      const Index wlo = part_start(wall_owner, nw, t, nt), whi = part_start(wall_owner, nw, t + 1, nt);
       Index* wact = active + np;
-      const Index wcount = compact(wlo, whi, wact + wlo, [&](Index e) {
+      const Index wcount = compact(wlo, whi, wact + wlo, [&](Index p) {
+        const Index e = c.wnear[p];
         const Plane& P = c.planes[c.wall[e]];
         const double gap = P.normal.dot(vec3(c.x, c.wown[e]) - P.point) - c.r[c.wown[e]];
         return (gap < 0) | (c.wtouch[e] != 0);
       });
       for (Index a = 0; a < wcount; ++a) {
-        const Index e = wact[wlo + a];
+        const Index e = c.wnear[wact[wlo + a]];
         const double lost = wall_entry(c, e, worst);
         if (lost != 0) c.diss[c.wown[e]] += lost;
         const double sum = vec3(c.wforce, e).sum();
@@ -416,37 +422,76 @@ struct Stepper {
     return bad != 0;
   }
 
-  // Pass 2, over particles: sums each particle's contacts (ContactSums, order fixed by ids) and
-  // advances it (2.2): v += dt (F/m + g), w += dt T/I, x += dt v. Bounds the distance moved for
-  // the neighbour lists by dt max|v|. Returns true if a new velocity is not finite.
+  // v += dt g, x += dt v over particles [lo, hi); returns max |v|^2 and a sum that is not
+  // finite if a velocity is not. Outside any OpenMP region, with local accumulators and the
+  // maximum taken on the bits (an order-preserving integer for doubles >= 0), so that gcc
+  // vectorises it.
+  [[gnu::noinline]] static void drift(double* x, double* v, Index lo, Index hi, double dt,
+                                     const double gx, const double gy, const double gz,
+                                     double& vmax2, double& check) {
+    std::uint64_t top = 0;
+    double sum = 0;
+    for (Index k = lo; k < hi; ++k) {
+      const double vx = v[3 * k] + gx, vy = v[3 * k + 1] + gy, vz = v[3 * k + 2] + gz;
+      v[3 * k] = vx;
+      v[3 * k + 1] = vy;
+      v[3 * k + 2] = vz;
+      x[3 * k] += dt * vx;
+      x[3 * k + 1] += dt * vy;
+      x[3 * k + 2] += dt * vz;
+      const double v2 = vx * vx + vy * vy + vz * vz;
+      std::uint64_t bits;
+      std::memcpy(&bits, &v2, sizeof bits);
+      top = top > bits ? top : bits;
+      sum += v2 * 0.0;  // NaN if v2 is not finite
+    }
+    std::memcpy(&vmax2, &top, sizeof top);
+    check = sum;
+  }
+
+  // Pass 2, over particles (2.2): the particles with entries sum their contacts (ContactSums,
+  // order fixed by ids) into v += dt F/m, w += dt T/I; then a dense pass over all particles adds
+  // gravity and moves them, v += dt g, x += dt v, and bounds the distance moved for the
+  // neighbour lists by dt max|v|. Returns true if a new velocity is not finite.
   static bool particle_pass(Simulation& s, double dt) {
-    const Index n = static_cast<Index>(s.n_);
+    const Index n = static_cast<Index>(s.n_), nb = static_cast<Index>(s.busy_.size());
     double *x = s.x_.data(), *v = s.v_.data(), *w = s.w_.data();
     const double *inv_m = s.inv_mass_.data(), *inv_i = s.inv_inertia_.data();
+    const Index* busy = s.busy_.data();
     const ContactSums sums(s);
-    const Vec3 g = s.opt_.gravity;
-    double vmax2 = 0;
-    int bad = 0;
-#pragma omp parallel for schedule(static) num_threads(s.threads()) if (n >= s.opt_.parallel_min) reduction(max : vmax2, bad)
-    for (Index k = 0; k < n; ++k) {
-      Vec3 F = Vec3::Zero(), T = Vec3::Zero();
-      sums.template at<kTangential, kTangential || kRough, kRolling>(k, F, T);
-      const Vec3 vk = vec3(v, k) + dt * (F * inv_m[k] + g);
-      vec3(v, k) = vk;
-      double sum = vk.sum();
-      if constexpr (kTorque) {
-        const Vec3 wk = vec3(w, k) + (dt * inv_i[k]) * T;
-        vec3(w, k) = wk;
-        sum += wk.sum();
-      }
-      vec3(x, k) += dt * vk;
-      vmax2 = std::max(vmax2, vk.squaredNorm());
-      if (!(sum - sum == 0)) bad = 1;
+    const double gx = dt * s.opt_.gravity.x(), gy = dt * s.opt_.gravity.y(),
+                 gz = dt * s.opt_.gravity.z();
+    const int threads = n >= s.opt_.parallel_min ? s.threads() : 1;
+    double vmax2 = 0, check = 0;
+#pragma omp parallel num_threads(threads) reduction(max : vmax2) reduction(+ : check)
+    {
+#pragma omp for schedule(static)
+      for (Index b = 0; b < nb; ++b) {
+        const Index k = busy[b];
+        Vec3 F = Vec3::Zero(), T = Vec3::Zero();
+        sums.template at<kTangential, kTangential || kRough, kRolling>(k, F, T);
+        vec3(v, k) += (dt * inv_m[k]) * F;
+        if constexpr (kTorque) {
+          const Vec3 wk = vec3(w, k) + (dt * inv_i[k]) * T;
+          vec3(w, k) = wk;
+          check += wk.sum() * 0.0;  // NaN or inf stay so
+        }
+      }  // (the implied barrier: all sums are in before any particle moves)
+#ifdef _OPENMP
+      const int t = omp_get_thread_num(), nt = omp_get_num_threads();
+#else
+      const int t = 0, nt = 1;
+#endif
+      double part_vmax2 = 0, part_check = 0;
+      drift(x, v, Index(std::int64_t(n) * t / nt), Index(std::int64_t(n) * (t + 1) / nt), dt, gx,
+            gy, gz, part_vmax2, part_check);
+      vmax2 = std::max(vmax2, part_vmax2);
+      check += part_check;
     }
     const double moved = std::sqrt(vmax2) * dt;
     s.moved_ += moved;
     s.moved_near_ += moved;
-    return bad != 0;
+    return !(check == 0);
   }
 };
 
