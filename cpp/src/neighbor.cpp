@@ -4,6 +4,7 @@
 #include <cmath>
 #include <limits>
 
+#include "tsubu/contact/normal.hpp"
 #include "tsubu/simulation.hpp"
 
 namespace tsubu {
@@ -336,12 +337,14 @@ void Simulation::refresh_near(bool transfer, bool reordered) {
     }
     wall_near_offset_[i + 1] = static_cast<Index>(wall_near_.size());
   }
+  loaded_.assign(n, 0);
   busy_.clear();
   for (std::size_t i = 0; i < n; ++i)
     if (wall_near_offset_[i + 1] > wall_near_offset_[i] || near_offset_[i + 1] > near_offset_[i] ||
         near_rev_offset_[i + 1] > near_rev_offset_[i])
       busy_.push_back(static_cast<Index>(i));
   active_.resize(m + wall_near_.size());  // pairs, then walls (step.hpp)
+  cache_near_terms();
   moved_near_ = 0;
   ++refreshes_;
 }
@@ -365,6 +368,15 @@ void Simulation::size_entry_buffers() {
   const std::size_t mr = has_rolling_ ? m : 0, kr = has_rolling_ ? k : 0;
   pair_roll_.resize(3 * mr, 0.0);
   wall_roll_.resize(3 * kr, 0.0);
+}
+
+void Simulation::cache_near_terms() {
+  near_eta_.resize(near_partner_.size());
+  for (std::size_t q = 0; q < near_partner_.size(); ++q) {
+    const Index i = near_owner_[q], j = near_partner_[q];
+    const double m_eff = mass_[i] * mass_[j] / (mass_[i] + mass_[j]);
+    near_eta_[q] = HookeNormal::damping(pairs_(material_[i], material_[j]), m_eff);
+  }
 }
 
 double Simulation::spring_energy(int a, int b, const std::vector<double>& xi, std::size_t e) const {

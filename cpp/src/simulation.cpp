@@ -339,6 +339,7 @@ void Simulation::prepare_run() {
   has_rough_ = key.roughness;
   if (!list_valid_) rebuild(true);
   size_entry_buffers();
+  cache_near_terms();  // the pair table may have changed since the last run
   if (!ran_) check_initial_overlaps();
   ran_ = true;
 }

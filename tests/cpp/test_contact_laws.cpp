@@ -25,6 +25,7 @@ ContactGeometry touching(double delta, double vn, const Vec3& vt) {
   g.vn = vn;
   g.vt = vt;
   g.m_eff = 1e-6;
+  g.eta_n = 0;
   return g;
 }
 
@@ -132,6 +133,7 @@ void test_law_combination() {
   static_assert(!Frictionless::has_history && !Frictionless::has_torque);
   static_assert(ContactLaw<TangentialRotate, NoRolling>::has_history);
   ContactGeometry g = touching(1e-6, -0.01, Vec3(1e-3, 0, 0));
+  g.eta_n = HookeNormal::damping(p, g.m_eff);
   Frictionless::History none;
   ContactResult res;
   Frictionless::evaluate(g, p, 1e-6, none, res);

@@ -214,8 +214,12 @@ class Simulation {
   std::vector<Index> pair_offset_, pair_partner_;
   std::vector<Index> near_offset_, near_owner_, near_partner_, near_rev_offset_, near_rev_;
   std::vector<double> near_cut2_;  // (r_i + r_j)^2
-  // Particles with near-pair or near-wall entries: the only ones whose contacts are summed.
+  std::vector<double> near_eta_;   // normal dashpot of the pair (B.9): a sqrt saved per contact
+  // Particles with near-pair or near-wall entries: the only ones whose contacts can be summed;
+  // and, per step, 1 for those with an entry in contact (set by the contact pass, cleared by
+  // the particle pass).
   std::vector<Index> busy_;
+  std::vector<std::uint8_t> loaded_;
   // Near-wall list: (particle, wall) entries within r + skin, by particle; they hold the wall
   // contact state. The step loop reads the subset within r + skin/10 (all of them if a wall
   // moves), refreshed with the near list: wall_near_ (entry indices, by particle).
@@ -274,6 +278,8 @@ class Simulation {
   // A touching entry that does not carry over (its spheres jumped apart by more than the skin
   // in one step) has opened: its spring energy is booked as lost, as the step would have.
   void refresh_near(bool transfer, bool reordered);
+  // near_eta_ from the current pair table (after a refresh, or when parameters change).
+  void cache_near_terms();
   // The energy a contact loses when it opens (its tangential spring; step.hpp releases).
   double spring_energy(int material_a, int material_b, const std::vector<double>& xi,
                        std::size_t e) const;

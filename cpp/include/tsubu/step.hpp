@@ -45,10 +45,10 @@ struct Stepper {
         s.refresh_near(true, false);
       }
       clock.lap(Phase::Neighbors);
-      double worst = 0;
-      const bool bad = contact_pass(s, dt, worst);
+      double excess = 0;  // the largest overlap beyond max_overlap x the smaller radius
+      const bool bad = contact_pass(s, dt, excess);
       clock.lap(Phase::Contacts);
-      if (!(worst <= s.opt_.max_overlap)) s.report_overlap(dt);
+      if (excess > 0) s.report_overlap(dt);
       if (bad) s.report_nonfinite();
       if (particle_pass(s, dt)) s.report_nonfinite_velocity();
       if constexpr (MovingWalls) s.move_planes(dt);
@@ -67,7 +67,7 @@ struct Stepper {
   }
 
   // Evaluates the law on geometry g with the entry's stored history; returns the result.
-  static ContactResult evaluate(const ContactGeometry& g, const PairParams& p, double dt,
+  TSUBU_INLINE static ContactResult evaluate(const ContactGeometry& g, const PairParams& p, double dt,
                                 double* xi) {
     History h;
     if constexpr (kHistory) std::copy(xi, xi + 3, h.xi);
@@ -165,11 +165,13 @@ struct Stepper {
     const int* mat;
     const Id* ids;
     const Index *own, *par, *wown, *wall, *wnear;
-    const double* cut2;
+    const double *cut2, *eta;
+    double limit;  // max_overlap
     double *xi, *force, *nxft, *roll, *overlap, *rough;
     double *wxi, *wforce, *wnxft, *wroll, *woverlap, *wrough;
     std::uint8_t *touch, *wtouch;
     double* diss;
+    std::uint8_t* loaded;
     const Plane* planes;
     const PairTable* table;
     std::uint64_t step, seed;
@@ -180,14 +182,14 @@ struct Stepper {
           m(s.mass_.data()), inv_i(s.inv_inertia_.data()), mat(s.material_.data()),
           ids(s.id_.data()), own(s.near_owner_.data()), par(s.near_partner_.data()),
           wown(s.wall_owner_.data()), wall(s.wall_index_.data()), wnear(s.wall_near_.data()),
-          cut2(s.near_cut2_.data()),
+          cut2(s.near_cut2_.data()), eta(s.near_eta_.data()), limit(s.opt_.max_overlap),
           xi(s.pair_xi_.data()), force(s.pair_force_.data()), nxft(s.pair_nxft_.data()),
           roll(s.pair_roll_.data()), overlap(s.pair_overlap_.data()),
           rough(s.pair_rough_.data()), wxi(s.wall_xi_.data()), wforce(s.wall_force_.data()),
           wnxft(s.wall_nxft_.data()), wroll(s.wall_roll_.data()),
           woverlap(s.wall_overlap_.data()), wrough(s.wall_rough_.data()),
           touch(s.pair_touch_.data()), wtouch(s.wall_touch_.data()),
-          diss(s.dissipated_.data()), planes(s.planes_.data()), table(&s.pairs_),
+          diss(s.dissipated_.data()), loaded(s.loaded_.data()), planes(s.planes_.data()), table(&s.pairs_),
           step(std::uint64_t(s.step_)), seed(s.opt_.seed), dt(dt_) {}
   };
 
@@ -214,8 +216,9 @@ struct Stepper {
   }
 
   // One near-pair entry that touches or has just stopped touching. Returns the energy it lost
-  // this step; raises `worst` to its overlap ratio.
-  static double pair_entry(const Pass& c, Index q, double& worst) {
+  // this step; raises `excess` to its overlap beyond
+  // max_overlap x the smaller radius.
+  static double pair_entry(const Pass& c, Index q, double& excess) {
     const Index i = c.own[q], j = c.par[q];
     const double ri = c.r[i], rj = c.r[j], dt = c.dt;
     const Vec3 d = vec3(c.x, i) - vec3(c.x, j);
@@ -226,10 +229,11 @@ struct Stepper {
     ContactGeometry g;
     const double dist = std::sqrt(dist2);
     g.delta = rs - dist;
-    const Vec3 n = d / dist;
+    const Vec3 n = d * (1.0 / dist);
     g.n = n;
-    worst = std::max(worst, g.delta / std::min(ri, rj));
-    g.m_eff = c.m[i] * c.m[j] / (c.m[i] + c.m[j]);
+    excess = std::max(excess, g.delta - c.limit * std::min(ri, rj));
+    g.eta_n = c.eta[q];
+    if constexpr (kRough) g.m_eff = c.m[i] * c.m[j] / (c.m[i] + c.m[j]);
     const Vec3 vrel = vec3(c.v, i) - vec3(c.v, j);
     if constexpr (kTorque) {
       g.ci = ri - 0.5 * g.delta;
@@ -282,8 +286,9 @@ struct Stepper {
     return res.power * dt;
   }
 
-  // One near-wall entry that touches, or touched last step. Returns the energy it lost.
-  static double wall_entry(const Pass& c, Index e, double& worst) {
+  // One near-wall entry that touches, or touched last step. Returns the energy it lost; raises
+  // `excess` as pair_entry.
+  static double wall_entry(const Pass& c, Index e, double& excess) {
     const Index i = c.wown[e];
     const Plane& P = c.planes[c.wall[e]];
     const PairParams& params = (*c.table)(c.mat[i], P.material);
@@ -317,8 +322,9 @@ struct Stepper {
     ContactGeometry g;
     g.n = n;
     g.delta = delta;
-    worst = std::max(worst, delta / ri);
+    excess = std::max(excess, delta - c.limit * ri);
     g.m_eff = c.m[i];
+    g.eta_n = HookeNormal::damping(params, g.m_eff);
     g.ci = ri - 0.5 * delta;
     g.cj = 0;
     Vec3 vrel = vec3(c.v, i);
@@ -369,17 +375,20 @@ struct Stepper {
     return count;
   }
 
+  // Flags particle k as having a contact this step (threads may flag the same one).
+  static void mark(std::uint8_t* loaded, Index k) { __atomic_store_n(loaded + k, 1, __ATOMIC_RELAXED); }
+
   // Pass 1: every near pair and near-wall entry in contact, or that was in contact last step,
   // is evaluated (or ended) and its result stored with it; each owner books the energy its
   // entries lost. Returns true if some contact result is not finite.
-  static bool contact_pass(Simulation& s, double dt, double& worst_out) {
+  static bool contact_pass(Simulation& s, double dt, double& excess_out) {
     const Pass c(s, dt);
     const Index np = Index(s.near_partner_.size()), nw = Index(s.wall_near_.size());
     Index* active = s.active_.data();
     const int threads = static_cast<int>(s.n_) >= s.opt_.parallel_min ? s.threads() : 1;
-    double worst = 0;
+    double excess = 0;
     int bad = 0;
-#pragma omp parallel num_threads(threads) reduction(max : worst, bad)
+#pragma omp parallel num_threads(threads) reduction(max : excess, bad)
     {
 #ifdef _OPENMP
       const int t = omp_get_thread_num(), nt = omp_get_num_threads();
@@ -394,8 +403,12 @@ struct Stepper {
       });
       for (Index a = 0; a < count; ++a) {
         const Index q = active[lo + a];
-        const double lost = pair_entry(c, q, worst);
+        const double lost = pair_entry(c, q, excess);
         if (lost != 0) c.diss[c.own[q]] += lost;
+        if (c.touch[q]) {
+          mark(c.loaded, c.own[q]);
+          mark(c.loaded, c.par[q]);
+        }
         const double sum = vec3(c.force, q).sum();
         if (!(sum - sum == 0)) bad = 1;  // inf or NaN (Eigen's allFinite() is not inlined)
       }
@@ -412,13 +425,14 @@ struct Stepper {
       });
       for (Index a = 0; a < wcount; ++a) {
         const Index e = c.wnear[wact[wlo + a]];
-        const double lost = wall_entry(c, e, worst);
+        const double lost = wall_entry(c, e, excess);
         if (lost != 0) c.diss[c.wown[e]] += lost;
+        if (c.wtouch[e]) mark(c.loaded, c.wown[e]);
         const double sum = vec3(c.wforce, e).sum();
         if (!(sum - sum == 0)) bad = 1;
       }
     }
-    worst_out = worst;
+    excess_out = excess;
     return bad != 0;
   }
 
@@ -458,6 +472,7 @@ struct Stepper {
     double *x = s.x_.data(), *v = s.v_.data(), *w = s.w_.data();
     const double *inv_m = s.inv_mass_.data(), *inv_i = s.inv_inertia_.data();
     const Index* busy = s.busy_.data();
+    std::uint8_t* loaded = s.loaded_.data();
     const ContactSums sums(s);
     const double gx = dt * s.opt_.gravity.x(), gy = dt * s.opt_.gravity.y(),
                  gz = dt * s.opt_.gravity.z();
@@ -468,6 +483,8 @@ struct Stepper {
 #pragma omp for schedule(static)
       for (Index b = 0; b < nb; ++b) {
         const Index k = busy[b];
+        if (!loaded[k]) continue;  // no contact this step: nothing to add
+        loaded[k] = 0;
         Vec3 F = Vec3::Zero(), T = Vec3::Zero();
         sums.template at<kTangential, kTangential || kRough, kRolling>(k, F, T);
         vec3(v, k) += (dt * inv_m[k]) * F;

@@ -6,6 +6,14 @@
 #include <stdexcept>
 #include <string>
 
+// Contact evaluators are small and called once per contact per step: always inline them into
+// the loop (gcc otherwise keeps the larger ones out of line, behind a call).
+#if defined(__GNUC__)
+#define TSUBU_INLINE inline __attribute__((always_inline))
+#else
+#define TSUBU_INLINE inline
+#endif
+
 namespace tsubu {
 
 using Vec3 = Eigen::Vector3d;

@@ -29,9 +29,9 @@ struct ContactLaw {
   // A tilted normal gives torque even without friction.
   static constexpr bool has_torque = Tangential::enabled || Rolling::enabled || Roughness::enabled;
 
-  static void evaluate(const ContactGeometry& g, const PairParams& p, double dt, History& h,
+  TSUBU_INLINE static void evaluate(const ContactGeometry& g, const PairParams& p, double dt, History& h,
                        ContactResult& out) {
-    const double eta_n = HookeNormal::damping(p, g.m_eff);
+    const double eta_n = g.eta_n;
     out.fn = HookeNormal::force(g, p, eta_n);
     out.force = out.fn * g.n;
     out.power = eta_n * g.vn * g.vn;

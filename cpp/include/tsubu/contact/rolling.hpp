@@ -19,7 +19,7 @@ struct RollingFriction {
 
   // Returns R with M_ij = r_i R and M_ji = -r_j R. Its size is capped so that, alone, it at most
   // stops the relative spin within this step and never reverses it.
-  static Vec3 evaluate(const ContactGeometry& g, const PairParams& p, double fn_abs, double dt) {
+  TSUBU_INLINE static Vec3 evaluate(const ContactGeometry& g, const PairParams& p, double fn_abs, double dt) {
     const double w = g.w_rel.norm();
     if (w == 0 || p.rolling_friction == 0) return Vec3::Zero();
     const double q = std::min(p.rolling_friction * fn_abs, w / (dt * g.spin_mobility));
