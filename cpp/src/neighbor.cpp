@@ -277,6 +277,12 @@ void Simulation::refresh_near(bool transfer, bool reordered) {
     std::fill(pair_state(k)->begin(), pair_state(k)->end(), 0.0);
   const std::size_t old_n = old_near_offset_.size() == 0 ? 0 : old_near_offset_.size() - 1;
   if (transfer && old_n > 0) {
+    // Only touching entries have state (an entry's results and history are zeroed when it
+    // opens; a rough entry redraws its facet at first touch).
+    std::array<std::vector<double>*, kEntryArrays> now_state;
+    for (std::size_t k = 0; k < kEntryArrays; ++k)
+      now_state[k] = (pair_state(k)->empty() || old_pair_state_[k].empty()) ? nullptr : pair_state(k);
+    const std::vector<double>& old_overlap = old_pair_state_[1];
     for (std::size_t i = 0; i < n; ++i) {
       Index oi = static_cast<Index>(i);
       if (reordered) {
@@ -289,18 +295,17 @@ void Simulation::refresh_near(bool transfer, bool reordered) {
       for (Index q = near_offset_[i]; q < near_offset_[i + 1] && p < p_end; ++q) {
         const Id b = id_[near_partner_[q]];
         while (p < p_end && old_near_partner_id_[p] < b) ++p;
-        if (p == p_end || old_near_partner_id_[p] != b) continue;
+        if (p == p_end || old_near_partner_id_[p] != b || !(old_overlap[p] > 0)) continue;
         for (std::size_t k = 0; k < kEntryArrays; ++k) {
-          const std::vector<double>& old = old_pair_state_[k];
-          std::vector<double>& now = *pair_state(k);
-          if (now.empty() || old.empty()) continue;  // the old or new law has no such array
+          if (!now_state[k]) continue;  // the old or new law has no such array
           const std::size_t wd = kEntryWidth[k];
-          std::copy(&old[wd * p], &old[wd * p] + wd, &now[wd * q]);
+          const double* from = old_pair_state_[k].data() + wd * p;
+          std::copy(from, from + wd, now_state[k]->data() + wd * q);
         }
         old_pair_state_[1][p] = 0;  // carried
       }
       for (p = old_near_offset_[oi]; p < p_end; ++p)
-        if (old_pair_state_[1][p] > 0) {  // touching, and now beyond the near list: it opened
+        if (old_overlap[p] > 0) {  // touching, and now beyond the near list: it opened
           const Index j = index_of_[old_near_partner_id_[p]];
           dissipated_[i] += spring_energy(material_[i], material_[j], old_pair_state_[0], p);
         }
