@@ -327,5 +327,12 @@ PYBIND11_MODULE(_core, m) {
                d[tsubu::phase_name(tsubu::Phase(p))] = s.phase_seconds()[p];
              return d;
            })
+      .def("memory_bytes",
+           [](const tsubu::Simulation& s) {
+             py::dict d;
+             for (const auto& [name, bytes] : s.memory_bytes()) d[py::str(name)] = bytes;
+             return d;
+           })
+      .def_property_readonly("near_refresh_count", &tsubu::Simulation::near_refresh_count)
       .def("skin", &tsubu::Simulation::skin);
 }

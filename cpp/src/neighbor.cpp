@@ -22,13 +22,24 @@ void insertion_sort(Index* first, Index* last, Key key) {
   }
 }
 
+// a[k] = a[perm[k]] (width values a particle), one component at a time through a scratch of n
+// values, so that no array is duplicated and every array keeps its exact capacity.
 template <class T>
 void permute(std::vector<T>& a, const std::vector<Index>& perm, int width, std::vector<T>& scratch) {
-  scratch.resize(a.size());
   const std::size_t n = perm.size();
-  for (std::size_t k = 0; k < n; ++k)
-    for (int c = 0; c < width; ++c) scratch[width * k + c] = a[width * perm[k] + c];
-  a.swap(scratch);
+  scratch.resize(n);
+  for (int c = 0; c < width; ++c) {
+    for (std::size_t k = 0; k < n; ++k) scratch[k] = a[width * perm[k] + c];
+    for (std::size_t k = 0; k < n; ++k) a[width * k + c] = scratch[k];
+  }
+}
+
+// Resizes a per-entry array, growing its capacity by 1/8 rather than doubling: the lists change
+// size a little at every refresh, and memory per particle is a figure we report.
+template <class T>
+void fit(std::vector<T>& a, std::size_t size, T value = T()) {
+  if (size > a.capacity()) a.reserve(size + size / 8);
+  a.resize(size, value);
 }
 
 }  // namespace
@@ -80,17 +91,38 @@ void Simulation::sort_by_cell(double h, const Vec3& lo, const std::array<long, 3
   permute(inv_inertia_, perm_, 1, scratch_);
   permute(dissipated_, perm_, 1, scratch_);
   permute(material_, perm_, 1, scratch_int_);
-  permute(id_, perm_, 1, scratch_id_);
+  // ids through index_of_, rebuilt just below (ids are < n, so they fit an Index)
   index_of_.resize(n);
+  for (std::size_t k = 0; k < n; ++k) index_of_[k] = static_cast<Index>(id_[perm_[k]]);
+  for (std::size_t k = 0; k < n; ++k) id_[k] = index_of_[k];
   for (std::size_t k = 0; k < n; ++k) index_of_[id_[k]] = static_cast<Index>(k);
 }
 
 void Simulation::stash_near() {
-  old_near_offset_.swap(near_offset_);
-  old_near_partner_id_.resize(near_partner_.size());
-  for (std::size_t q = 0; q < near_partner_.size(); ++q)
-    old_near_partner_id_[q] = id_[near_partner_[q]];
-  for (std::size_t k = 0; k < kEntryArrays; ++k) old_pair_state_[k].swap(*pair_state(k));
+  // Only touching entries have state: copy theirs, compactly, with rows by owner.
+  const std::size_t rows = near_offset_.empty() ? 0 : near_offset_.size() - 1;
+  std::size_t count = 0;
+  for (double o : pair_overlap_) count += o > 0;
+  old_near_offset_.resize(rows + 1);
+  old_near_partner_id_.resize(count);
+  for (std::size_t k = 0; k < kEntryArrays; ++k)
+    old_pair_state_[k].resize(pair_state(k)->empty() ? 0 : count * kEntryWidth[k]);
+  std::size_t c = 0;
+  old_near_offset_[0] = 0;
+  for (std::size_t i = 0; i < rows; ++i) {
+    for (Index q = near_offset_[i]; q < near_offset_[i + 1]; ++q) {
+      if (!(pair_overlap_[q] > 0)) continue;
+      old_near_partner_id_[c] = id_[near_partner_[q]];
+      for (std::size_t k = 0; k < kEntryArrays; ++k) {
+        if (old_pair_state_[k].empty()) continue;
+        const std::size_t wd = kEntryWidth[k];
+        const double* from = pair_state(k)->data() + wd * q;
+        std::copy(from, from + wd, old_pair_state_[k].data() + wd * c);
+      }
+      ++c;
+    }
+    old_near_offset_[i + 1] = static_cast<Index>(c);
+  }
 }
 
 void Simulation::rebuild(bool keep_history) {
@@ -251,24 +283,32 @@ void Simulation::refresh_near(bool transfer, bool reordered) {
   const double* r = radius_.data();
   const double reach = near_skin();
 
-  // 1. The pairs of the Verlet list within r_i + r_j + skin/10, in the Verlet list's order.
+  // 1. The pairs of the Verlet list within r_i + r_j + skin/10, in the Verlet list's order:
+  //    counted, then stored.
+  auto near = [&](std::size_t i, Index j) {
+    const double cut = r[i] + r[j] + reach;
+    return (vec3(x, i) - vec3(x, j)).squaredNorm() < cut * cut;
+  };
   near_offset_.resize(n + 1);
-  near_owner_.clear();
-  near_partner_.clear();
-  near_cut2_.clear();
   near_offset_[0] = 0;
   for (std::size_t i = 0; i < n; ++i) {
-    const Vec3 xi = vec3(x, i);
+    Index count = 0;
+    for (Index e = pair_offset_[i]; e < pair_offset_[i + 1]; ++e) count += near(i, pair_partner_[e]);
+    near_offset_[i + 1] = near_offset_[i] + count;
+  }
+  const std::size_t m = static_cast<std::size_t>(near_offset_[n]);
+  fit(near_owner_, m);
+  fit(near_partner_, m);
+  fit(near_cut2_, m);
+  for (std::size_t i = 0; i < n; ++i) {
+    Index q = near_offset_[i];
     for (Index e = pair_offset_[i]; e < pair_offset_[i + 1]; ++e) {
       const Index j = pair_partner_[e];
-      const double cut = r[i] + r[j];
-      if ((xi - vec3(x, j)).squaredNorm() < (cut + reach) * (cut + reach)) {
-        near_owner_.push_back(static_cast<Index>(i));
-        near_partner_.push_back(j);
-        near_cut2_.push_back(cut * cut);
-      }
+      if (!near(i, j)) continue;
+      near_owner_[q] = static_cast<Index>(i);
+      near_partner_[q] = j;
+      near_cut2_[q++] = (r[i] + r[j]) * (r[i] + r[j]);
     }
-    near_offset_[i + 1] = static_cast<Index>(near_partner_.size());
   }
 
   // 2. Contact state, carried over by (owner id, partner id): rows are sorted by partner id.
@@ -282,6 +322,7 @@ void Simulation::refresh_near(bool transfer, bool reordered) {
     std::array<std::vector<double>*, kEntryArrays> now_state;
     for (std::size_t k = 0; k < kEntryArrays; ++k)
       now_state[k] = (pair_state(k)->empty() || old_pair_state_[k].empty()) ? nullptr : pair_state(k);
+    // (the stash holds touching entries only, rows sorted by partner id)
     const std::vector<double>& old_overlap = old_pair_state_[1];
     for (std::size_t i = 0; i < n; ++i) {
       Index oi = static_cast<Index>(i);
@@ -315,10 +356,9 @@ void Simulation::refresh_near(bool transfer, bool reordered) {
 
   // 3. Reverse index: for each particle, the entries where it is the partner, by owner id.
   near_rev_offset_.assign(n + 1, 0);
-  const std::size_t m = near_partner_.size();
   for (std::size_t q = 0; q < m; ++q) ++near_rev_offset_[near_partner_[q] + 1];
   for (std::size_t i = 0; i < n; ++i) near_rev_offset_[i + 1] += near_rev_offset_[i];
-  near_rev_.resize(m);
+  fit(near_rev_, m);
   {
     std::vector<Index>& fill = scratch_int_;
     fill.assign(near_rev_offset_.begin(), near_rev_offset_.end() - 1);
@@ -334,6 +374,7 @@ void Simulation::refresh_near(bool transfer, bool reordered) {
   wall_near_offset_.resize(n + 1);
   wall_near_offset_[0] = 0;
   wall_near_.clear();
+  wall_near_.reserve(wall_index_.size());
   for (std::size_t i = 0; i < n; ++i) {
     for (Index e = wall_offset_[i]; e < wall_offset_[i + 1]; ++e) {
       const Plane& p = planes_[wall_index_[e]];
@@ -348,7 +389,7 @@ void Simulation::refresh_near(bool transfer, bool reordered) {
     if (wall_near_offset_[i + 1] > wall_near_offset_[i] || near_offset_[i + 1] > near_offset_[i] ||
         near_rev_offset_[i + 1] > near_rev_offset_[i])
       busy_.push_back(static_cast<Index>(i));
-  active_.resize(m + wall_near_.size());  // pairs, then walls (step.hpp)
+  fit(active_, m + wall_near_.size());  // pairs, then walls (step.hpp)
   cache_near_terms();
   moved_near_ = 0;
   ++refreshes_;
@@ -356,27 +397,27 @@ void Simulation::refresh_near(bool transfer, bool reordered) {
 
 void Simulation::size_entry_buffers() {
   const std::size_t m = near_partner_.size(), k = wall_index_.size();
-  pair_overlap_.resize(m, 0.0);
-  pair_touch_.resize(m, 0);
-  pair_force_.resize(3 * m, 0.0);
-  wall_overlap_.resize(k, 0.0);
-  wall_touch_.resize(k, 0);
-  wall_force_.resize(3 * k, 0.0);
+  fit(pair_overlap_, m);
+  fit(pair_touch_, m);
+  fit(pair_force_, 3 * m);
+  fit(wall_overlap_, k);
+  fit(wall_touch_, k);
+  fit(wall_force_, 3 * k);
   const std::size_t mt = has_history_ ? m : 0, kt = has_history_ ? k : 0;
   const std::size_t mm = (has_history_ || has_rough_) ? m : 0;
-  pair_xi_.resize(3 * mt, 0.0);
-  pair_nxft_.resize(3 * mm, 0.0);
-  wall_xi_.resize(3 * kt, 0.0);
-  wall_nxft_.resize(3 * kt, 0.0);
-  pair_rough_.resize(6 * (has_rough_ ? m : 0), 0.0);
-  wall_rough_.resize(6 * (has_rough_ ? k : 0), 0.0);
+  fit(pair_xi_, 3 * mt);
+  fit(pair_nxft_, 3 * mm);
+  fit(wall_xi_, 3 * kt);
+  fit(wall_nxft_, 3 * kt);
+  fit(pair_rough_, 6 * (has_rough_ ? m : 0));
+  fit(wall_rough_, 6 * (has_rough_ ? k : 0));
   const std::size_t mr = has_rolling_ ? m : 0, kr = has_rolling_ ? k : 0;
-  pair_roll_.resize(3 * mr, 0.0);
-  wall_roll_.resize(3 * kr, 0.0);
+  fit(pair_roll_, 3 * mr);
+  fit(wall_roll_, 3 * kr);
 }
 
 void Simulation::cache_near_terms() {
-  near_eta_.resize(near_partner_.size());
+  fit(near_eta_, near_partner_.size());
   for (std::size_t q = 0; q < near_partner_.size(); ++q) {
     const Index i = near_owner_[q], j = near_partner_[q];
     const double m_eff = mass_[i] * mass_[j] / (mass_[i] + mass_[j]);

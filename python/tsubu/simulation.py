@@ -464,8 +464,20 @@ class Simulation:
 
     @property
     def rebuild_count(self) -> int:
-        """Neighbour-list rebuilds so far."""
+        """Verlet-list rebuilds so far."""
         return self._core.rebuild_count
+
+    @property
+    def near_refresh_count(self) -> int:
+        """Refreshes of the near list (the pairs within r_i + r_j + skin/10 that the step loop
+        reads; docs/architecture.md) so far, rebuilds included."""
+        return self._core.near_refresh_count
+
+    def memory_bytes(self) -> dict:
+        """Bytes held by the engine's arrays, by group (``particles``, ``verlet list``,
+        ``near list`` with the contact state, ``walls``, ``scratch`` kept for the next rebuild).
+        Capacities, not the process's resident memory (benchmarks/throughput.py reports both)."""
+        return self._core.memory_bytes()
 
     def __repr__(self) -> str:
         return (f"tsubu.Simulation({self.size} spheres, {self._core.plane_count} walls, "

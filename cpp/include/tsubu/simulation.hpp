@@ -6,6 +6,7 @@
 #include <array>
 #include <chrono>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "material.hpp"
@@ -164,6 +165,9 @@ class Simulation {
   std::vector<std::array<Id, 2>> neighbor_pairs() const;
   long rebuild_count() const { return rebuilds_; }
   long near_refresh_count() const { return refreshes_; }
+  // Bytes held by the engine's arrays (their capacity), by group: particles, verlet list, near
+  // list (with the contact state), walls, scratch (kept for the next rebuild).
+  std::vector<std::pair<std::string, std::size_t>> memory_bytes() const;
   // Seconds spent per phase of the loop since construction (see Phase).
   const std::array<double, int(Phase::Count)>& phase_seconds() const { return phase_seconds_; }
   double skin() const;
@@ -247,7 +251,8 @@ class Simulation {
   std::vector<Index> old_near_offset_, old_wall_offset_, old_wall_index_;
   std::vector<Id> old_near_partner_id_;
   // Per-entry state carried across refreshes: history, overlap, force, n x F, rolling vector,
-  // roughness, touching flag.
+  // roughness. The near list's is stashed compactly (touching entries only, rows by owner in
+  // old_near_offset_), the walls' whole.
   static constexpr std::size_t kEntryArrays = 6;
   static constexpr std::size_t kEntryWidth[kEntryArrays] = {3, 1, 3, 3, 3, 6};
   std::vector<double>* pair_state(std::size_t k);
@@ -256,7 +261,6 @@ class Simulation {
   std::vector<std::uint8_t> old_touch_;
   std::vector<double> scratch_;
   std::vector<int> scratch_int_;
-  std::vector<Id> scratch_id_;
 
   // Run state.
   long step_ = 0;
