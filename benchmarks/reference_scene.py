@@ -161,6 +161,7 @@ def build(n, threads=None, friction: float = MU, rolling_friction: float = 0.0, 
     wall = material(friction, rolling_friction, roughness) if roughness > 0 else mat
     sim = tsubu.Simulation(gravity=(0.0, 0.0, -G), dt=DT, threads=threads, skin=SKIN,
                            slip_rule=slip_rule)
+    sim.reserve(n)
     for start in range(0, n, chunk):
         x, v = initial_state(n, start, start + chunk)
         sim.add_spheres(x, R, mat, velocities=v)

@@ -77,6 +77,15 @@ def test_add_spheres_rejects_a_bad_radius_entry(ref_sim, ref_material):
     assert ref_sim.size == 0
 
 
+@pytest.mark.parametrize("count, error, pattern", [
+    (-5, ValueError, r"count.*-5"), (2.5, TypeError, r"count.*2\.5")])
+def test_reserve_rejects_a_bad_count(ref_sim, count, error, pattern):
+    with pytest.raises(error, match=pattern):
+        ref_sim.reserve(count)
+    ref_sim.reserve(3)  # room only: adds nothing
+    assert ref_sim.size == 0
+
+
 @pytest.mark.parametrize("bad, pattern", [(NAN, r"positions.*row 1.*nan"),
                                           (INF, r"positions.*row 1.*inf"),
                                           (-INF, r"positions.*row 1.*-inf")])

@@ -140,6 +140,7 @@ PYBIND11_MODULE(_core, m) {
                              "roughness_distribution"_a = distribution_name(p.roughness_distribution),
                              "shadow"_a = shadow_name(p.shadow));
            })
+      .def("reserve", &tsubu::Simulation::reserve)
       .def("add_spheres",
            [](tsubu::Simulation& s, const Array& x, const Array& r, const IntArray& mat,
               std::optional<Array> v, std::optional<Array> w) {

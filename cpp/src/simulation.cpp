@@ -174,6 +174,14 @@ Id Simulation::add_spheres(std::size_t n, const double* positions, const double*
   return first;
 }
 
+void Simulation::reserve(std::size_t count) {
+  for (auto* a : {&x_, &v_, &w_}) a->reserve(3 * count);
+  for (auto* a : {&radius_, &mass_, &inv_mass_, &inv_inertia_, &dissipated_}) a->reserve(count);
+  material_.reserve(count);
+  id_.reserve(count);
+  index_of_.reserve(count);
+}
+
 Id Simulation::add_sphere(const Vec3& position, double radius, int material,
                           const Vec3& velocity, const Vec3& angular_velocity) {
   return add_spheres(1, position.data(), &radius, &material, velocity.data(),

@@ -214,6 +214,11 @@ class Simulation:
         return p
 
     # ---- scene -------------------------------------------------------------------------------
+    def reserve(self, count: int) -> None:
+        """Make room for ``count`` spheres in all (an integer >= 0) before adding them in
+        batches: the engine's particle arrays then grow once, which keeps peak memory down."""
+        self._core.reserve(_checks.whole("count", count))
+
     def add_spheres(self, positions, radius, material: Material, velocities=None,
                     angular_velocities=None) -> np.ndarray:
         """Add N spheres; returns their ids (consecutive integers, in the order given).

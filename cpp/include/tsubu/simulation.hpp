@@ -111,6 +111,9 @@ class Simulation {
   Id add_spheres(std::size_t n, const double* positions, const double* radii,
                  const int* materials, const double* velocities = nullptr,
                  const double* angular_velocities = nullptr);
+  // Capacity for `count` spheres in all, so that adding them in batches does not regrow (and
+  // fragment) the particle arrays.
+  void reserve(std::size_t count);
   Id add_sphere(const Vec3& position, double radius, int material,
                 const Vec3& velocity = Vec3::Zero(), const Vec3& angular_velocity = Vec3::Zero());
   int add_plane(const Vec3& point, const Vec3& normal, int material,
