@@ -390,6 +390,7 @@ void Simulation::refresh_near(bool transfer, bool reordered) {
         near_rev_offset_[i + 1] > near_rev_offset_[i])
       busy_.push_back(static_cast<Index>(i));
   fit(active_, m + wall_near_.size());  // pairs, then walls (step.hpp)
+  fit(active_inv_dist_, m);
   cache_near_terms();
   moved_near_ = 0;
   ++refreshes_;

@@ -609,7 +609,8 @@ std::vector<std::pair<std::string, std::size_t>> Simulation::memory_bytes() cons
       {"walls", bytes(wall_offset_, wall_index_, wall_owner_, wall_near_offset_, wall_near_,
                       wall_xi_, wall_force_, wall_nxft_, wall_roll_, wall_overlap_, wall_touch_,
                       wall_rough_)},
-      {"scratch", bytes(cell_start_, cell_of_, perm_, old_index_of_, active_, old_near_offset_,
+      {"scratch", bytes(cell_start_, cell_of_, perm_, old_index_of_, active_, active_inv_dist_,
+                        old_near_offset_,
                         old_wall_offset_, old_wall_index_, old_near_partner_id_, scratch_,
                         scratch_int_) +
                       old_state},

@@ -251,6 +251,7 @@ class Simulation {
   std::array<double, int(Phase::Count)> phase_seconds_{};
   // Scratch reused by rebuilds and steps (no allocation once warm).
   std::vector<Index> cell_start_, cell_of_, perm_, old_index_of_, active_;
+  std::vector<double> active_inv_dist_;  // (per near entry: the contact pass's 1/|x_ij|)
   std::vector<Index> old_near_offset_, old_wall_offset_, old_wall_index_;
   std::vector<Id> old_near_partner_id_;
   // Per-entry state carried across refreshes: history, overlap, force, n x F, rolling vector,

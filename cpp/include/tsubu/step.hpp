@@ -218,7 +218,7 @@ struct Stepper {
   // One near-pair entry that touches or has just stopped touching. Returns the energy it lost
   // this step; raises `excess` to its overlap beyond
   // max_overlap x the smaller radius.
-  static double pair_entry(const Pass& c, Index q, double& excess) {
+  static double pair_entry(const Pass& c, Index q, double inv_dist, double& excess) {
     const Index i = c.own[q], j = c.par[q];
     const double ri = c.r[i], rj = c.r[j], dt = c.dt;
     const Vec3 d = vec3(c.x, i) - vec3(c.x, j);
@@ -227,9 +227,9 @@ struct Stepper {
     const PairParams& params = (*c.table)(c.mat[i], c.mat[j]);
     if (dist2 >= c.cut2[q]) return end_pair(c, q, params, d, rs, dist2);  // (1.10)
     ContactGeometry g;
-    const double dist = std::sqrt(dist2);
+    const double dist = dist2 * inv_dist;
     g.delta = rs - dist;
-    const Vec3 n = d * (1.0 / dist);
+    const Vec3 n = d * inv_dist;
     g.n = n;
     excess = std::max(excess, g.delta - c.limit * std::min(ri, rj));
     g.eta_n = c.eta[q];
@@ -375,6 +375,24 @@ struct Stepper {
     return count;
   }
 
+  // The same for pairs, keeping each kept entry's squared distance in `d2`.
+  static Index compact_pairs(const Pass& c, Index lo, Index hi, Index* act, double* d2) {
+    Index count = 0;
+    for (Index q = lo; q < hi; ++q) {
+      const double dd = (vec3(c.x, c.own[q]) - vec3(c.x, c.par[q])).squaredNorm();
+      act[count] = q;
+      d2[count] = dd;
+      count += ((dd < c.cut2[q]) | (c.touch[q] != 0)) ? 1 : 0;
+    }
+    return count;
+  }
+
+  // 1/|x_ij| of every kept pair, in one pass that the compiler vectorises: the square roots and
+  // divisions then leave the contact law's critical path.
+  [[gnu::noinline]] static void inverse_distances(double* d2, Index count) {
+    for (Index a = 0; a < count; ++a) d2[a] = 1.0 / std::sqrt(d2[a]);
+  }
+
   // Flags particle k as having a contact this step (threads may flag the same one).
   static void mark(std::uint8_t* loaded, Index k) { __atomic_store_n(loaded + k, 1, __ATOMIC_RELAXED); }
 
@@ -385,6 +403,7 @@ struct Stepper {
     const Pass c(s, dt);
     const Index np = Index(s.near_partner_.size()), nw = Index(s.wall_near_.size());
     Index* active = s.active_.data();
+    double* inv_dist = s.active_inv_dist_.data();
     const int threads = static_cast<int>(s.n_) >= s.opt_.parallel_min ? s.threads() : 1;
     double excess = 0;
     int bad = 0;
@@ -397,13 +416,11 @@ struct Stepper {
 #endif
       auto pair_owner = [&](Index q) { return c.own[q]; };
       const Index lo = part_start(pair_owner, np, t, nt), hi = part_start(pair_owner, np, t + 1, nt);
-      const Index count = compact(lo, hi, active + lo, [&](Index q) {
-        const Vec3 d = vec3(c.x, c.own[q]) - vec3(c.x, c.par[q]);
-        return (d.squaredNorm() < c.cut2[q]) | (c.touch[q] != 0);
-      });
+      const Index count = compact_pairs(c, lo, hi, active + lo, inv_dist + lo);
+      inverse_distances(inv_dist + lo, count);
       for (Index a = 0; a < count; ++a) {
         const Index q = active[lo + a];
-        const double lost = pair_entry(c, q, excess);
+        const double lost = pair_entry(c, q, inv_dist[lo + a], excess);
         if (lost != 0) c.diss[c.own[q]] += lost;
         if (c.touch[q]) {
           mark(c.loaded, c.own[q]);
