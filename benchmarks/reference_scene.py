@@ -29,6 +29,7 @@ summary.
 from __future__ import annotations
 
 import math
+import os
 
 import numpy as np
 
@@ -153,25 +154,66 @@ def build(n, threads=None, friction: float = MU, rolling_friction: float = 0.0, 
     own storage (this matters when peak memory is measured). The scene's dimensions are kept as
     ``sim.reference_scene`` (a dict: n, shape, lx, ly).
     """
-    import tsubu
     n = int(n)
     nx, ny, nz = shape(n)
     lx, ly = box(n)
     mat = material(friction, rolling_friction)
     wall = material(friction, rolling_friction, roughness) if roughness > 0 else mat
-    sim = tsubu.Simulation(gravity=(0.0, 0.0, -G), dt=DT, threads=threads, skin=SKIN,
-                           slip_rule=slip_rule)
+    sim = new_simulation(threads, slip_rule)
     sim.reserve(n)
     for start in range(0, n, chunk):
         x, v = initial_state(n, start, start + chunk)
         sim.add_spheres(x, R, mat, velocities=v)
         del x, v
+    add_walls(sim, lx, ly, wall)
+    sim.reference_scene = {"n": n, "shape": (nx, ny, nz), "lx": lx, "ly": ly, "walls": 5}
+    return sim
+
+
+def new_simulation(threads=None, slip_rule: str = "truncate"):
+    """An empty ``tsubu.Simulation`` with the scene's gravity, dt and skin."""
+    import tsubu
+    return tsubu.Simulation(gravity=(0.0, 0.0, -G), dt=DT, threads=threads, skin=SKIN,
+                            slip_rule=slip_rule)
+
+
+def add_walls(sim, lx: float, ly: float, wall) -> None:
+    """The scene's five walls, in LAMMPS's order: floor z = 0, x = 0, x = Lx, y = 0, y = Ly."""
     sim.add_plane(point=(0.0, 0.0, 0.0), normal=(0.0, 0.0, 1.0), material=wall)   # floor
     sim.add_plane(point=(0.0, 0.0, 0.0), normal=(1.0, 0.0, 0.0), material=wall)   # x = 0
     sim.add_plane(point=(lx, 0.0, 0.0), normal=(-1.0, 0.0, 0.0), material=wall)   # x = Lx
     sim.add_plane(point=(0.0, 0.0, 0.0), normal=(0.0, 1.0, 0.0), material=wall)   # y = 0
     sim.add_plane(point=(0.0, ly, 0.0), normal=(0.0, -1.0, 0.0), material=wall)   # y = Ly
-    sim.reference_scene = {"n": n, "shape": (nx, ny, nz), "lx": lx, "ly": ly, "walls": 5}
+
+
+# ---------------------------------------------------------------- the settled dense bed
+# The N = 1e4 drop settled for 0.2 s (shared/bench/dense/bed_10000.txt, gzipped here): 21,812 pair
+# contacts, mean z 9.784 mm; box Lx = Ly as the N = 1e4 drop. Its LAMMPS data file's box top:
+DENSE_BED = os.path.join(os.path.dirname(os.path.abspath(__file__)), "dense", "bed_10000.txt.gz")
+DENSE_ZTOP = 0.021242950938713399
+
+
+def dense_bed_state(path: str = DENSE_BED) -> dict:
+    """The settled bed, id order: x, v, w as (N, 3) arrays [m, m/s, rad/s]."""
+    a = np.loadtxt(path, ndmin=2)
+    a = a[np.argsort(a[:, 0])]
+    return {"x": a[:, 1:4], "v": a[:, 4:7], "w": a[:, 7:10]}
+
+
+def build_dense_bed(threads=None, floor_velocity: float = 0.0, slip_rule: str = "truncate"):
+    """The dense-bed benchmark (shared/bench/README.md) as a ``tsubu.Simulation``: the settled bed,
+    five walls, zero tangential history; ``floor_velocity`` > 0: the floor slides along +x at that
+    speed [m/s] (dense-shear; it stays at z = 0)."""
+    state = dense_bed_state()
+    n = len(state["x"])
+    lx, ly = box(n)
+    mat = material()
+    sim = new_simulation(threads, slip_rule)
+    sim.add_spheres(state["x"], R, mat, velocities=state["v"], angular_velocities=state["w"])
+    add_walls(sim, lx, ly, mat)
+    if floor_velocity:
+        sim.set_plane_motion(0, velocity=(floor_velocity, 0.0, 0.0))
+    sim.reference_scene = {"n": n, "lx": lx, "ly": ly, "walls": 5, "floor_velocity": floor_velocity}
     return sim
 
 
