@@ -453,6 +453,23 @@ void Simulation::report_nonfinite() const {
   throw InstabilityError("unstable: non-finite force", step_ + 1, -1);
 }
 
+void Simulation::check_energy(const Energy& start) const {
+  const Energy now = energy();
+  const double created = (now.total() + now.dissipated) - (start.total() + start.dissipated);
+  const double lost = now.dissipated - start.dissipated;
+  const double scale = std::max(start.kinetic() + start.elastic, now.kinetic() + now.elastic);
+  if (!(created > 0.5 * std::max(lost, 0.0) + 0.05 * scale)) return;
+  throw InstabilityError(
+      "unstable at step " + std::to_string(step_) + " (t = " + fmt(time_) +
+          " s): the energy balance grew by " + fmt(created) + " J since this run started (energy "
+          "dissipated meanwhile " + fmt(lost) + " J, kinetic + elastic now " +
+          fmt(now.kinetic() + now.elastic) + " J) with no moving wall to supply it: the time step "
+          "is too large for this packing. critical_time_step() bounds one contact; a sphere "
+          "pressed by many neighbours needs less (about 0.4 of it in a squeezed pack, "
+          "docs/benchmarks.md). The state at this step is kept.",
+      step_, -1);
+}
+
 void Simulation::report_nonfinite_velocity() const {
   for (std::size_t k = 0; k < n_; ++k)
     if (!finite3(v_.data() + 3 * k) || !finite3(w_.data() + 3 * k))

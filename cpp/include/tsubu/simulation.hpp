@@ -192,6 +192,11 @@ class Simulation {
   [[noreturn]] void report_overlap(double dt) const;
   [[noreturn]] void report_nonfinite() const;
   [[noreturn]] void report_nonfinite_velocity() const;
+  // Raises InstabilityError if the energy balance (mechanical + dissipated) grew since `start`
+  // by more than half the energy dissipated meanwhile plus 5 % of the kinetic + elastic energy:
+  // the first-order error of a stable run stays near 1 % of the dissipated energy.
+  static constexpr long kEnergyCheck = 1000;
+  void check_energy(const Energy& start) const;
   int threads() const;
   template <class F>
   void for_each_contact_type(F&& f) const;
