@@ -41,7 +41,7 @@ struct Stepper {
     // steps of a long run (Simulation::check_energy), which catches the bounded bursts that a
     // dense pack run above its own (lower) bound goes through without any overlap limit.
     const bool watch = !MovingWalls && steps >= Simulation::kEnergyCheck;
-    const Energy start = watch ? s.energy() : Energy();
+    const Energy start = watch ? s.energy_now() : Energy();
     for (long k = 0; k < steps; ++k) {
       if (s.needs_rebuild()) {
         s.rebuild(true);
