@@ -224,7 +224,7 @@ struct Stepper {
   // One near-pair entry that touches or has just stopped touching. Returns the energy it lost
   // this step; raises `excess` to its overlap beyond
   // max_overlap x the smaller radius.
-  static double pair_entry(const Pass& c, Index q, double inv_dist, double& excess) {
+  TSUBU_INLINE static double pair_entry(const Pass& c, Index q, double inv_dist, double& excess) {
     const Index i = c.own[q], j = c.par[q];
     const double ri = c.r[i], rj = c.r[j], dt = c.dt;
     const Vec3 d = vec3(c.x, i) - vec3(c.x, j);
