@@ -228,8 +228,8 @@ OVERLAP_MESSAGE = re.compile(
     r"(?:sphere (\d+) and wall (\d+)|spheres (\d+) and (\d+)) "
     r"overlap by ([0-9.]+) of the smaller radius \(limit ([0-9.]+)\)")
 ENERGY_MESSAGE = re.compile(
-    r"unstable at step (\d+) \(t = [^)]*\): the energy balance grew by ([-0-9.e+]+) J since this "
-    r"run started \(energy dissipated meanwhile ([-0-9.e+]+) J")
+    r"unstable at step (\d+) \(t = [^)]*\): the energy balance grew by ([-0-9.e+]+) J since step "
+    r"\d+ \(energy dissipated meanwhile ([-0-9.e+]+) J")
 
 
 def explained(sim: tsubu.Simulation, err: tsubu.InstabilityError) -> str:

@@ -15,10 +15,10 @@ contact of the scene (m_red = m/2 for two equal spheres).
   0.5 r within a few steps and that check catches it.
 * A small sphere on a large one (mass ratio 1:1000): the bound uses the reduced mass, so
   0.95 critical_time_step() is stable.
-* Impacts. From 10 m/s on the reference material the overlap passes max_overlap = 0.5 r (the
-  closed-form peak overlap of an elastic impact is v sqrt(m/k) = 11.4 r): the run stops with
-  InstabilityError naming the sphere and the wall. At 0.3 m/s (peak 0.34 r) the sphere bounces
-  and never crosses the wall.
+* Impacts. The closed-form peak overlap of an elastic wall impact is v sqrt(m/k) (0.072 r per
+  m/s here; the dashpot lowers it): from 10 m/s (0.72 r elastic, 0.54 r damped) it passes
+  max_overlap = 0.5 r and the run stops with InstabilityError naming the sphere and the wall;
+  at 0.3 m/s (0.022 r) the sphere bounces and never crosses the wall.
 """
 
 from __future__ import annotations
@@ -140,7 +140,7 @@ def impact(speed: float) -> tsubu.Simulation:
 
 def test_impact_at_10_m_per_s_passes_max_overlap_and_is_caught():
     sim = impact(10.0)
-    assert 10.0 * math.sqrt(M / K) > 0.5 * R  # the closed-form peak overlap passes the limit
+    assert 10.0 * math.sqrt(M / K) > 0.5 * R  # the elastic closed-form peak passes the limit
     with pytest.raises(tsubu.InstabilityError, match=r"sphere 0 and wall 0 overlap by .*limit 0\.5"):
         sim.run(steps=400)
     assert np.all(np.isfinite(sim.positions))

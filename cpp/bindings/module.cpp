@@ -300,13 +300,14 @@ PYBIND11_MODULE(_core, m) {
              s.set_angular_velocities(a.data());
            })
       .def("energy",
-           [](const tsubu::Simulation& s) {
-             const tsubu::Energy e = s.energy();
+           [](const tsubu::Simulation& s, bool at_positions) {
+             const tsubu::Energy e = at_positions ? s.energy_now() : s.energy();
              return py::dict("translational"_a = e.translational, "rotational"_a = e.rotational,
                              "kinetic"_a = e.kinetic(), "gravitational"_a = e.gravitational,
                              "elastic"_a = e.elastic, "total"_a = e.total(),
                              "dissipated"_a = e.dissipated);
-           })
+           },
+           "at_positions"_a = false)
       .def("contacts", &contacts_dict)
       .def("rebuild_neighbors", &tsubu::Simulation::rebuild_neighbors)
       .def("neighbor_pairs",

@@ -442,14 +442,18 @@ class Simulation:
         """
         return self._core.contacts()
 
-    def energy(self) -> dict:
+    def energy(self, at_positions: bool = False) -> dict:
         """Energies [J]: ``translational``, ``rotational``, ``kinetic`` (their sum),
         ``gravitational`` (-sum m g.x), ``elastic`` (springs of the last force evaluation:
         1/2 kn overlap^2 + 1/2 kt |history|^2), ``total`` (kinetic + gravitational + elastic) and
         ``dissipated`` (work of dashpots, slip and rolling friction since the start). With fixed
         walls, ``total + dissipated`` is conserved up to time-discretisation error.
+
+        at_positions : bool, default False. True: the normal springs' energy from the current
+        positions instead of the last force evaluation (which is one step behind the kinetic and
+        gravitational parts): the consistent balance that tsubu's own instability check uses.
         """
-        return self._core.energy()
+        return self._core.energy(bool(at_positions))
 
     # ---- neighbour list ----------------------------------------------------------------------
     def rebuild_neighbors(self) -> None:

@@ -38,10 +38,16 @@ struct Stepper {
     const double dt = s.dt_;
     PhaseTimer clock(s.phase_seconds_);
     // With fixed walls no energy enters the scene: the balance is checked every kEnergyCheck
-    // steps of a long run (Simulation::check_energy), which catches the bounded bursts that a
-    // dense pack run above its own (lower) bound goes through without any overlap limit.
-    const bool watch = !MovingWalls && steps >= Simulation::kEnergyCheck;
-    const Energy start = watch ? s.energy_now() : Energy();
+    // steps (Simulation::check_energy), which catches the bounded bursts that a dense pack run
+    // above its own (lower) bound goes through without any overlap limit.
+    if (MovingWalls) {
+      s.energy_ref_valid_ = false;
+    } else if (!s.energy_ref_valid_ || s.energy_ref_gravity_ != s.opt_.gravity) {
+      s.energy_ref_ = s.energy_now();
+      s.energy_ref_valid_ = true;
+      s.energy_ref_gravity_ = s.opt_.gravity;
+      s.energy_ref_step_ = s.step_;
+    }
     for (long k = 0; k < steps; ++k) {
       if (s.needs_rebuild()) {
         s.rebuild(true);
@@ -59,7 +65,7 @@ struct Stepper {
       if constexpr (MovingWalls) s.move_planes(dt);
       ++s.step_;
       s.time_ += dt;
-      if (watch && (k + 1) % Simulation::kEnergyCheck == 0) s.check_energy(start);
+      if (!MovingWalls && s.step_ % Simulation::kEnergyCheck == 0) s.check_energy(s.energy_ref_);
       clock.lap(Phase::Integrate);
     }
   }
