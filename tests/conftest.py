@@ -67,3 +67,38 @@ def momenta(sim: tsubu.Simulation, origin):
     spin = (0.4 * m * r * r)[:, None] * w
     return (p.sum(0), np.abs(p).sum(), orbital.sum(0) + spin.sum(0),
             np.abs(orbital).sum() + np.abs(spin).sum())
+
+
+def squeezed_pack(kind: str, f: float, cells: int = 3, squeeze_top: bool = False):
+    """Spheres of the reference material (e = 0.5, friction 0.5) on a simple-cubic ("sc"),
+    body-centred ("bcc") or face-centred ("fcc") lattice, nearest neighbours at 1.98 R (1 %
+    overlap); the walls x, y, z = 0 touch the first layer with the same 1 % overlap, the three
+    opposite walls either squeeze the outer layer by 1 % too (``squeeze_top``) or stand at
+    cells x lattice constant + 0.99 R (a gap, as benchmarks/stability.py); no gravity, random
+    velocities of 1 mm/s (seed 1), dt = f 2 sqrt(m/2 / k). Returns (simulation, box side)."""
+    r, k, m = REF_RADIUS, REF_KN, sphere_mass()
+    d = 1.98 * r
+    if kind == "sc":
+        a, basis = d, [(0, 0, 0)]
+    elif kind == "bcc":
+        a, basis = 2 * d / math.sqrt(3), [(0, 0, 0), (0.5, 0.5, 0.5)]
+    else:
+        a, basis = d * math.sqrt(2), [(0, 0, 0), (0.5, 0.5, 0), (0.5, 0, 0.5), (0, 0.5, 0.5)]
+    x = np.array([(np.array([i, j, l]) + b) * a for i in range(cells) for j in range(cells)
+                  for l in range(cells) for b in basis]) + 0.99 * r
+    side = x.max() + 0.99 * r if squeeze_top else cells * a + 0.99 * r
+    mat = make_material(restitution=0.5, friction=0.5)
+    sim = tsubu.Simulation(gravity=(0.0, 0.0, 0.0), dt=f * 2 * math.sqrt(m / 2 / k), threads=1,
+                           allow_unstable_dt=True)
+    sim.add_spheres(x, r, mat, velocities=np.random.default_rng(1).normal(0.0, 1e-3, x.shape))
+    for axis in range(3):
+        n = np.eye(3)[axis]
+        sim.add_plane(point=(0.0, 0.0, 0.0), normal=n, material=mat)
+        sim.add_plane(point=side * n, normal=-n, material=mat)
+    return sim, side
+
+
+def mechanical(sim: tsubu.Simulation) -> float:
+    """Kinetic + elastic energy [J] (no gravity in the squeezed packs)."""
+    e = sim.energy()
+    return e["kinetic"] + e["elastic"]

@@ -28,7 +28,8 @@ import pytest
 
 import tsubu
 from conftest import (REF_KN, REF_RADIUS, contact_time, damped_frequency,
-                      damping_from_restitution, make_material, sphere_mass)
+                      damping_from_restitution, make_material, mechanical, sphere_mass,
+                      squeezed_pack)
 
 R = REF_RADIUS
 K = REF_KN
@@ -446,38 +447,10 @@ def test_small_on_large_sphere_above_the_pair_bound_is_caught_at_the_pair(e):
 
 # ---- the map: squeezed lattices ------------------------------------------------------------------
 
-def squeezed_lattice(kind: str, f: float, cells: int = 3) -> tuple[tsubu.Simulation, float]:
-    """The map's packs (benchmarks/stability.py, at its --quick size): spheres on a simple-cubic,
-    body-centred or face-centred lattice, nearest neighbours at 1.98 R (1 % overlap), the three
-    walls x, y, z = 0 touching the first layer with the same 1 % overlap and the three at
-    cells x lattice constant + 0.99 R leaving a gap, no gravity, e = 0.5, friction 0.5, random
-    velocities of 1 mm/s (seed 1); dt = f 2 sqrt(m/2 / k). Returns the simulation and the box
-    side."""
-    d = 1.98 * R
-    if kind == "sc":
-        a, basis = d, [(0, 0, 0)]
-    elif kind == "bcc":
-        a, basis = 2 * d / math.sqrt(3), [(0, 0, 0), (0.5, 0.5, 0.5)]
-    else:
-        a, basis = d * math.sqrt(2), [(0, 0, 0), (0.5, 0.5, 0), (0.5, 0, 0.5), (0, 0.5, 0.5)]
-    x = np.array([(np.array([i, j, k]) + b) * a for i in range(cells) for j in range(cells)
-                  for k in range(cells) for b in basis]) + 0.99 * R
-    side = cells * a + 0.99 * R
-    mat = make_material(restitution=0.5, friction=0.5)
-    sim = tsubu.Simulation(gravity=(0.0, 0.0, 0.0), dt=f * 2 * math.sqrt(M / 2 / K), threads=1,
-                           allow_unstable_dt=True)
-    rng = np.random.default_rng(1)
-    sim.add_spheres(x, R, mat, velocities=rng.normal(0.0, 1e-3, x.shape))
-    for axis in range(3):
-        n = np.eye(3)[axis]
-        sim.add_plane(point=(0.0, 0.0, 0.0), normal=n, material=mat)
-        sim.add_plane(point=side * n, normal=-n, material=mat)
-    return sim, side
-
-
-def mechanical(sim: tsubu.Simulation) -> float:
-    e = sim.energy()
-    return e["kinetic"] + e["elastic"]
+def squeezed_lattice(kind: str, f: float) -> tuple[tsubu.Simulation, float]:
+    """The map's packs (benchmarks/stability.py at its --quick size: 3 cells, the far walls
+    leaving a gap): conftest.squeezed_pack."""
+    return squeezed_pack(kind, f)
 
 
 @pytest.mark.parametrize("kind", ["sc", "bcc", "fcc"])

@@ -29,46 +29,23 @@ import numpy as np
 import pytest
 
 import tsubu
-from conftest import REF_KN, REF_RADIUS, make_material, sphere_mass
+from conftest import (REF_KN, REF_RADIUS, make_material, mechanical, sphere_mass,
+                      squeezed_pack)
 
 R = REF_RADIUS
 K = REF_KN
 M = sphere_mass()
 
 
-def squeezed_pack(kind: str, f: float, cells: int = 3) -> tsubu.Simulation:
-    """Spheres on a simple-cubic or face-centred lattice, nearest neighbours at 1.98 R (1 %
-    overlap), in a box of six walls touching the outer layer, random velocities of 1 mm/s, no
-    gravity; dt = f 2 sqrt(m/2 / k)."""
-    d = 1.98 * R
-    if kind == "sc":
-        a, basis = d, [(0, 0, 0)]
-    else:
-        a, basis = d * math.sqrt(2), [(0, 0, 0), (0.5, 0.5, 0), (0.5, 0, 0.5), (0, 0.5, 0.5)]
-    x = np.array([(np.array([i, j, k]) + b) * a for i in range(cells) for j in range(cells)
-                  for k in range(cells) for b in basis]) + 0.99 * R
-    side = x.max() + 0.99 * R  # the walls squeeze the outer layer by 1 % too
-    mat = make_material(restitution=0.5, friction=0.5)
-    sim = tsubu.Simulation(gravity=(0.0, 0.0, 0.0), dt=f * 2 * math.sqrt(M / 2 / K), threads=1,
-                           allow_unstable_dt=True)
-    rng = np.random.default_rng(1)
-    sim.add_spheres(x, R, mat, velocities=rng.normal(0.0, 1e-3, x.shape))
-    for axis in range(3):
-        n = np.eye(3)[axis]
-        sim.add_plane(point=(0.0, 0.0, 0.0), normal=n, material=mat)
-        sim.add_plane(point=side * n, normal=-n, material=mat)
-    return sim
-
-
-def mechanical(sim: tsubu.Simulation) -> float:
-    e = sim.energy()
-    return e["kinetic"] + e["elastic"]
+def tight_pack(kind: str, f: float) -> tsubu.Simulation:
+    """A 3-cell squeezed pack whose six walls all squeeze the outer layers by 1 %."""
+    return squeezed_pack(kind, f, squeeze_top=True)[0]
 
 
 @pytest.mark.parametrize("kind", ["sc", "fcc"])
 def test_squeezed_pack_is_stable_well_inside_the_chain_bound(kind):
     """f = 0.3: the pack's energy only decays (e = 0.5), nothing leaves the box."""
-    sim = squeezed_pack(kind, 0.3)
+    sim = tight_pack(kind, 0.3)
     sim.run(steps=10)
     start = mechanical(sim)
     sim.run(steps=3000)
@@ -81,7 +58,7 @@ def test_squeezed_pack_is_stable_well_inside_the_chain_bound(kind):
 def test_squeezed_pack_burst_is_caught_by_the_energy_balance(kind):
     """f = 0.5 (0.62 critical_time_step()): no overlap comes near 0.5 r, but energy appears from
     nowhere (walls fixed, no gravity); the run stops once the balance shows it."""
-    sim = squeezed_pack(kind, 0.5)
+    sim = tight_pack(kind, 0.5)
     with pytest.raises(tsubu.InstabilityError, match=r"energy balance grew by .* too large for this packing"):
         sim.run(steps=5000)
     assert np.all(np.isfinite(sim.positions)) and np.all(np.isfinite(sim.velocities))
@@ -91,7 +68,7 @@ def test_squeezed_pack_burst_is_caught_by_the_energy_balance(kind):
 def test_squeezed_pack_beyond_the_chain_bound_is_caught(kind):
     """f = 0.95: inside the single-contact bound but beyond the chain's 1/sqrt(2): the pack's
     highest mode grows; the run must stop with InstabilityError, not turn NaN."""
-    sim = squeezed_pack(kind, 0.95)
+    sim = tight_pack(kind, 0.95)
     assert sim.dt < 2 * math.sqrt(M / 2 / K)
     with pytest.raises(tsubu.InstabilityError) as info:
         sim.run(steps=20000)

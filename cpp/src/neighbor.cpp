@@ -107,6 +107,8 @@ void Simulation::stash_near() {
   old_near_partner_id_.resize(count);
   for (std::size_t k = 0; k < kEntryArrays; ++k)
     old_pair_state_[k].resize(pair_state(k)->empty() ? 0 : count * kEntryWidth[k]);
+  std::array<const double*, kEntryArrays> now;
+  for (std::size_t k = 0; k < kEntryArrays; ++k) now[k] = pair_state(k)->data();
   std::size_t c = 0;
   old_near_offset_[0] = 0;
   for (std::size_t i = 0; i < rows; ++i) {
@@ -116,7 +118,7 @@ void Simulation::stash_near() {
       for (std::size_t k = 0; k < kEntryArrays; ++k) {
         if (old_pair_state_[k].empty()) continue;
         const std::size_t wd = kEntryWidth[k];
-        const double* from = pair_state(k)->data() + wd * q;
+        const double* from = now[k] + wd * q;
         std::copy(from, from + wd, old_pair_state_[k].data() + wd * c);
       }
       ++c;
