@@ -391,8 +391,7 @@ void Simulation::refresh_near(bool transfer, bool reordered) {
     if (wall_near_offset_[i + 1] > wall_near_offset_[i] || near_offset_[i + 1] > near_offset_[i] ||
         near_rev_offset_[i + 1] > near_rev_offset_[i])
       busy_.push_back(static_cast<Index>(i));
-  fit(active_, m + wall_near_.size());  // pairs, then walls (step.hpp)
-  fit(active_inv_dist_, m);
+  fit(active_, wall_near_.size());  // the walls in contact (step.hpp)
   cache_near_terms();
   moved_near_ = 0;
   ++refreshes_;

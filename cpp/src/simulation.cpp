@@ -349,6 +349,9 @@ void Simulation::prepare_run() {
   has_history_ = key.tangential != TangentialKind::None;
   has_rolling_ = key.rolling;
   has_rough_ = key.roughness;
+  sphere_material_ = n_ > 0 ? material_[0] : -1;
+  for (std::size_t k = 1; k < n_ && sphere_material_ >= 0; ++k)
+    if (material_[k] != sphere_material_) sphere_material_ = -1;
   if (!list_valid_) rebuild(true);
   size_entry_buffers();
   cache_near_terms();  // the pair table may have changed since the last run
@@ -658,7 +661,7 @@ std::vector<std::pair<std::string, std::size_t>> Simulation::memory_bytes() cons
       {"walls", bytes(wall_offset_, wall_index_, wall_owner_, wall_near_offset_, wall_near_,
                       wall_xi_, wall_force_, wall_nxft_, wall_roll_, wall_overlap_, wall_touch_,
                       wall_rough_)},
-      {"scratch", bytes(cell_start_, cell_of_, perm_, old_index_of_, active_, active_inv_dist_,
+      {"scratch", bytes(cell_start_, cell_of_, perm_, old_index_of_, active_,
                         old_near_offset_,
                         old_wall_offset_, old_wall_index_, old_near_partner_id_, scratch_,
                         scratch_int_) +

@@ -224,6 +224,7 @@ class Simulation {
   std::vector<double> x_, v_, w_;
   std::vector<double> radius_, mass_, inv_mass_, inv_inertia_, dissipated_;
   std::vector<int> material_;
+  int sphere_material_ = -1;  // the one material of all spheres, else -1 (set when a run starts)
   std::vector<Id> id_;
   std::vector<Index> index_of_;  // id -> internal index
 
@@ -267,7 +268,6 @@ class Simulation {
   std::array<double, int(Phase::Count)> phase_seconds_{};
   // Scratch reused by rebuilds and steps (no allocation once warm).
   std::vector<Index> cell_start_, cell_of_, perm_, old_index_of_, active_;
-  std::vector<double> active_inv_dist_;  // (per near entry: the contact pass's 1/|x_ij|)
   std::vector<Index> old_near_offset_, old_wall_offset_, old_wall_index_;
   std::vector<Id> old_near_partner_id_;
   // Per-entry state carried across refreshes: history, overlap, force, n x F, rolling vector,

@@ -4,6 +4,26 @@
 
 namespace tsubu {
 
+// A 3-vector as three plain doubles: the "lane" form in which the laws are written. One contact
+// evaluated alone and a block of contacts evaluated together (the compiler vectorises across
+// the block) then run the same arithmetic, in the same order, and give the same bits.
+struct L3 {
+  double x, y, z;
+};
+TSUBU_INLINE L3 operator+(L3 a, L3 b) { return {a.x + b.x, a.y + b.y, a.z + b.z}; }
+TSUBU_INLINE L3 operator-(L3 a, L3 b) { return {a.x - b.x, a.y - b.y, a.z - b.z}; }
+TSUBU_INLINE L3 operator-(L3 a) { return {-a.x, -a.y, -a.z}; }
+TSUBU_INLINE L3 operator*(double s, L3 a) { return {s * a.x, s * a.y, s * a.z}; }
+TSUBU_INLINE L3 operator/(L3 a, double s) { return {a.x / s, a.y / s, a.z / s}; }
+TSUBU_INLINE double dot(L3 a, L3 b) { return a.x * b.x + a.y * b.y + a.z * b.z; }
+TSUBU_INLINE L3 cross(L3 a, L3 b) {
+  return {a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x};
+}
+// Branch-free choice per component (a blend when vectorised).
+TSUBU_INLINE L3 select(bool c, L3 a, L3 b) { return {c ? a.x : b.x, c ? a.y : b.y, c ? a.z : b.z}; }
+TSUBU_INLINE L3 lanes(const Vec3& v) { return {v.x(), v.y(), v.z()}; }
+TSUBU_INLINE Vec3 vec(L3 a) { return Vec3(a.x, a.y, a.z); }
+
 struct ContactGeometry {
   Vec3 n;          // unit normal from j (or the wall) to i (1.9)
   double delta;    // overlap r_i + r_j - |x_ij| > 0 (1.7, 1.10); wall: r_i - distance (3.1)

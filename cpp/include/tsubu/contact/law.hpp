@@ -29,22 +29,48 @@ struct ContactLaw {
   // A tilted normal gives torque even without friction.
   static constexpr bool has_torque = Tangential::enabled || Rolling::enabled || Roughness::enabled;
 
+  // The pair's parameters one lane needs (a block gathers them per contact).
+  struct Params {
+    double kn, kt, friction, tangential_damping;
+  };
+
+  // The normal and tangential laws of one contact in lane form (plain doubles, no branches): a
+  // block of contacts runs it in a loop the compiler vectorises. Sets F (on i), n x F_t and the
+  // dissipated power; updates the tangential displacement xi.
+  TSUBU_INLINE static void lane(L3 n, L3 vt, double delta, double vn, double eta_n, const Params& p,
+                                double dt, L3& xi, L3& force, L3& n_cross_ft, double& power) {
+    const double fn = HookeNormal::force(p.kn, delta, eta_n, vn);
+    force = fn * n;
+    power = eta_n * vn * vn;
+    if constexpr (Tangential::enabled) {
+      const L3 ft = Tangential::lane(n, vt, p.kt, p.tangential_damping * eta_n,
+                                     p.friction * std::abs(fn), dt, xi, power);
+      force = force + ft;
+      n_cross_ft = cross(n, ft);
+    } else {
+      (void)vt;
+      (void)xi;
+      (void)n_cross_ft;
+    }
+  }
+
   TSUBU_INLINE static void evaluate(const ContactGeometry& g, const PairParams& p, double dt, History& h,
                        ContactResult& out) {
-    const double eta_n = g.eta_n;
-    out.fn = HookeNormal::force(g, p, eta_n);
-    out.force = out.fn * g.n;
-    out.power = eta_n * g.vn * g.vn;
-    const double fn_abs = std::abs(out.fn);
-    if constexpr (Tangential::enabled) {
-      const Vec3 ft =
-          Tangential::evaluate(g, p, p.tangential_damping * eta_n, fn_abs, dt, h, out.power);
-      out.force += ft;
-      out.n_cross_ft = g.n.cross(ft);
+    L3 xi{0, 0, 0}, force, nxft{0, 0, 0};
+    if constexpr (has_history) xi = {h.xi[0], h.xi[1], h.xi[2]};
+    lane(lanes(g.n), lanes(g.vt), g.delta, g.vn, g.eta_n,
+         Params{p.kn, p.kt, p.friction, p.tangential_damping}, dt, xi, force, nxft, out.power);
+    if constexpr (has_history) {
+      h.xi[0] = xi.x;
+      h.xi[1] = xi.y;
+      h.xi[2] = xi.z;
     } else {
       (void)h;
     }
-    if constexpr (Rolling::enabled) out.roll = Rolling::evaluate(g, p, fn_abs, dt);
+    out.fn = HookeNormal::force(g, p, g.eta_n);
+    out.force = vec(force);
+    out.n_cross_ft = vec(nxft);
+    if constexpr (Rolling::enabled) out.roll = Rolling::evaluate(g, p, std::abs(out.fn), dt);
   }
 };
 

@@ -17,43 +17,48 @@ struct NoTangential {
 };
 
 namespace detail {
-// Coulomb cap (1.17)-(1.18) shared by the history laws. `xi_trial` holds the displacement with
-// this step's increment; `xi_frozen` the displacement without it. When the trial force exceeds
+// Coulomb cap (1.17)-(1.18) shared by the history laws, branch-free (both outcomes are computed
+// and one is kept, so that a block of contacts vectorises). `trial` holds the displacement with
+// this step's increment; `frozen` the displacement without it. When the trial force exceeds
 // mu |f_n| the contact slips: the force is mu |f_n| along -t, t = v_t/|v_t| (DESIGN.md note 1:
-// |f_n|, not |f_t|), and the displacement stays frozen (1.18).
+// |f_n|, not |f_t|), and the displacement stays frozen (1.18). Returns F_t; sets xi.
 template <bool kTruncate = false>
-TSUBU_INLINE Vec3 coulomb(const ContactGeometry& g, const PairParams& p, double eta_t, double fn_abs,
-                    double dt, const Vec3& xi_trial, const Vec3& xi_frozen, double* xi,
-                    double& power) {
-  Vec3 ft = -p.kt * xi_trial - eta_t * g.vt;  // (1.11)
-  const double cap = p.friction * fn_abs;
-  const double ft2 = ft.squaredNorm();
+TSUBU_INLINE L3 coulomb(L3 vt, double kt, double eta_t, double cap, double dt, L3 trial, L3 frozen,
+                        L3& xi, double& power) {
+  const L3 ft = -kt * trial - eta_t * vt;  // (1.11)
+  const double ft2 = dot(ft, ft);
+  const bool slip = ft2 > cap * cap;
+  const double stick_power = eta_t * dot(vt, vt);
   if constexpr (kTruncate) {
     // The rule of LAMMPS (gran/hooke/history) and SCENE.md: the trial force is scaled down to
     // the cap in its own direction, and the displacement truncated to match.
-    if (ft2 > cap * cap) {
-      ft *= cap / std::sqrt(ft2);
-      const Vec3 cut = -(ft + eta_t * g.vt) / p.kt;
-      std::copy(cut.data(), cut.data() + 3, xi);
-      // dissipated = work against the slip + the spring energy cut off
-      power += -ft.dot(g.vt) + 0.5 * p.kt * (xi_frozen.squaredNorm() - cut.squaredNorm()) / dt;
-    } else {
-      std::copy(xi_trial.data(), xi_trial.data() + 3, xi);
-      power += eta_t * g.vt.squaredNorm();
-    }
-    return ft;
-  }
-  if (ft2 > cap * cap) {
-    const double vt = g.vt.norm();
-    // Slip direction -t; if v_t vanishes the spring alone broke the cap: keep its direction.
-    ft = (vt > 0) ? Vec3(-cap / vt * g.vt) : Vec3(cap / std::sqrt(ft2) * ft);
-    std::copy(xi_frozen.data(), xi_frozen.data() + 3, xi);
-    power += -ft.dot(g.vt);
+    const L3 fs = (cap / std::sqrt(ft2)) * ft;
+    const L3 cut = -(fs + eta_t * vt) / kt;
+    // dissipated = work against the slip + the spring energy cut off
+    const double slip_power = -dot(fs, vt) + 0.5 * kt * (dot(frozen, frozen) - dot(cut, cut)) / dt;
+    xi = select(slip, cut, trial);
+    power += slip ? slip_power : stick_power;
+    return select(slip, fs, ft);
   } else {
-    std::copy(xi_trial.data(), xi_trial.data() + 3, xi);
-    power += eta_t * g.vt.squaredNorm();
+    // Slip direction -t; if v_t vanishes the spring alone broke the cap: keep its direction.
+    const double vt_abs = std::sqrt(dot(vt, vt));
+    const L3 fs = select(vt_abs > 0, (-cap / vt_abs) * vt, (cap / std::sqrt(ft2)) * ft);
+    xi = select(slip, frozen, trial);
+    power += slip ? -dot(fs, vt) : stick_power;
+    return select(slip, fs, ft);
   }
-  return ft;
+}
+
+// The Eigen form of a tangential law's lane (single contacts, tests): F_t, with h.xi updated.
+template <class Law>
+TSUBU_INLINE Vec3 tangential(const ContactGeometry& g, const PairParams& p, double eta_t,
+                             double fn_abs, double dt, typename Law::History& h, double& power) {
+  L3 xi{h.xi[0], h.xi[1], h.xi[2]};
+  const L3 ft = Law::lane(lanes(g.n), lanes(g.vt), p.kt, eta_t, p.friction * fn_abs, dt, xi, power);
+  h.xi[0] = xi.x;
+  h.xi[1] = xi.y;
+  h.xi[2] = xi.z;
+  return vec(ft);
 }
 }  // namespace detail
 
@@ -66,25 +71,26 @@ struct TangentialRotateRule {
   static constexpr const char* name = kTruncate ? "rotate, truncate" : "rotate";
   struct History { double xi[3]; };
 
-  TSUBU_INLINE static Vec3 evaluate(const ContactGeometry& g, const PairParams& p, double eta_t, double fn_abs,
-                       double dt, History& h, double& power) {
-    const Vec3 old = Eigen::Map<const Vec3>(h.xi);
-    const double along = old.dot(g.n);
-    Vec3 rot = old - along * g.n;
-    const double len2 = old.squaredNorm();
-    if (along != 0) {
-      // Rescale to the old length: sqrt(len2 / rot2) = (1 - eps)^(-1/2), eps = along^2 / len2.
-      // Each step turns the plane by a tiny angle, so the series (error < eps^3 / 3, below
-      // rounding for eps < 1e-5) spares a square root on the critical path.
-      const double eps = along * along / len2;
-      const double rot2 = rot.squaredNorm();
-      if (eps < 1e-5)
-        rot *= 1.0 + eps * (0.5 + 0.375 * eps);
-      else if (rot2 > 0)
-        rot *= std::sqrt(len2 / rot2);
-    }
-    const Vec3 trial = rot + g.vt * dt;  // (1.13) one step
-    return detail::coulomb<kTruncate>(g, p, eta_t, fn_abs, dt, trial, rot, h.xi, power);
+  // One contact: normal n, tangential velocity vt, cap mu |f_n|; returns F_t, updates xi.
+  TSUBU_INLINE static L3 lane(L3 n, L3 vt, double kt, double eta_t, double cap, double dt, L3& xi,
+                              double& power) {
+    const L3 old = xi;
+    const double along = dot(old, n);
+    const L3 flat = old - along * n;
+    // Rescale to the old length: sqrt(len2 / rot2) = (1 - eps)^(-1/2), eps = along^2 / len2.
+    // Each step turns the plane by a tiny angle, so the series (error < eps^3 / 3, below
+    // rounding for eps < 1e-5) is the usual case; the square root covers large turns.
+    const double len2 = dot(old, old), rot2 = dot(flat, flat);
+    const double eps = along * along / len2;
+    const double series = 1.0 + eps * (0.5 + 0.375 * eps), exact = std::sqrt(len2 / rot2);
+    const double scale = eps < 1e-5 ? series : (rot2 > 0 ? exact : 1.0);
+    const L3 rot = select(along != 0, scale * flat, flat);
+    const L3 trial = rot + dt * vt;  // (1.13) one step
+    return detail::coulomb<kTruncate>(vt, kt, eta_t, cap, dt, trial, rot, xi, power);
+  }
+  TSUBU_INLINE static Vec3 evaluate(const ContactGeometry& g, const PairParams& p, double eta_t,
+                                    double fn_abs, double dt, History& h, double& power) {
+    return detail::tangential<TangentialRotateRule>(g, p, eta_t, fn_abs, dt, h, power);
   }
 };
 using TangentialRotate = TangentialRotateRule<false>;
@@ -98,12 +104,17 @@ struct TangentialLiteral {
   static constexpr const char* name = "literal";
   struct History { double xi[3]; };
 
-  TSUBU_INLINE static Vec3 evaluate(const ContactGeometry& g, const PairParams& p, double eta_t, double fn_abs,
-                       double dt, History& h, double& power) {
-    const Vec3 old = Eigen::Map<const Vec3>(h.xi);
-    const double vt = g.vt.norm();
-    const Vec3 trial = (vt > 0) ? Vec3((old.norm() + vt * dt) / vt * g.vt) : old;  // (1.14), (1.16)
-    return detail::coulomb(g, p, eta_t, fn_abs, dt, trial, old, h.xi, power);
+  TSUBU_INLINE static L3 lane(L3, L3 vt, double kt, double eta_t, double cap, double dt, L3& xi,
+                              double& power) {
+    const L3 old = xi;
+    const double vt_abs = std::sqrt(dot(vt, vt));
+    const L3 trial =
+        select(vt_abs > 0, ((std::sqrt(dot(old, old)) + vt_abs * dt) / vt_abs) * vt, old);  // (1.14), (1.16)
+    return detail::coulomb(vt, kt, eta_t, cap, dt, trial, old, xi, power);
+  }
+  TSUBU_INLINE static Vec3 evaluate(const ContactGeometry& g, const PairParams& p, double eta_t,
+                                    double fn_abs, double dt, History& h, double& power) {
+    return detail::tangential<TangentialLiteral>(g, p, eta_t, fn_abs, dt, h, power);
   }
 };
 
