@@ -305,7 +305,7 @@ PYBIND11_MODULE(_core, m) {
              return py::dict("translational"_a = e.translational, "rotational"_a = e.rotational,
                              "kinetic"_a = e.kinetic(), "gravitational"_a = e.gravitational,
                              "elastic"_a = e.elastic, "total"_a = e.total(),
-                             "dissipated"_a = e.dissipated);
+                             "dissipated"_a = e.dissipated, "step_correction"_a = e.step_correction);
            },
            "at_positions"_a = false)
       .def("contacts", &contacts_dict)

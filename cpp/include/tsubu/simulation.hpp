@@ -52,6 +52,11 @@ struct Plane {
 
 struct Energy {
   double translational = 0, rotational = 0, gravitational = 0, elastic = 0, dissipated = 0;
+  // Symplectic Euler conserves, for linear springs, not total() but total() + step_correction:
+  // (dt/2) sum v.F over gravity and the normal springs (forces of the positions), minus the same
+  // over the tangential springs (forces of this step's displacement, one velocity later).
+  // Filled by energy_now() only.
+  double step_correction = 0;
   double kinetic() const { return translational + rotational; }
   // Mechanical energy; with fixed walls, total() + dissipated stays constant.
   double total() const { return translational + rotational + gravitational + elastic; }
@@ -167,8 +172,8 @@ class Simulation {
 
   Energy energy() const;
   // energy() with the elastic part at the current positions (energy() takes it from the last
-  // force evaluation, a step behind the kinetic and gravitational parts): the balance a
-  // stability check should compare.
+  // force evaluation, a step behind the kinetic and gravitational parts), with the step
+  // correction: the balance a stability check should compare.
   Energy energy_now() const;
   std::vector<ContactInfo> contacts() const;
 
