@@ -451,7 +451,11 @@ class Simulation:
 
         at_positions : bool, default False. True: the normal springs' energy from the current
         positions instead of the last force evaluation (which is one step behind the kinetic and
-        gravitational parts): the consistent balance that tsubu's own instability check uses.
+        gravitational parts), and ``step_correction`` [J] = dt/2 (sum v.F over gravity and the
+        normal springs - the same over the tangential springs): ``total + step_correction`` is
+        symplectic Euler's modified energy, exactly conserved for linear springs however close
+        dt is to the bound; with ``dissipated`` it is the balance that tsubu's own instability
+        check uses (docs/physics.md). Without at_positions, ``step_correction`` is 0.
         """
         return self._core.energy(bool(at_positions))
 
