@@ -518,10 +518,6 @@ struct Stepper {
     for (Index q = lo; q < hi; ++q) {
       const L3 d = lanes(vec3(c.x, c.own[q]) - vec3(c.x, c.par[q]));
       const double dd = dot(d, d);
-      if constexpr (kBlocked) {  // the partner's velocities, read soon after by the gather
-        __builtin_prefetch(c.v + 3 * c.par[q]);
-        if constexpr (kTangential) __builtin_prefetch(c.w + 3 * c.par[q]);
-      }
       act[count] = q;
       d2[count] = dd;
       count += ((dd < c.cut2[q]) | (c.touch[q] != 0)) ? 1 : 0;
