@@ -291,18 +291,24 @@ void Simulation::refresh_near(bool transfer, bool reordered) {
     const double cut = r[i] + r[j] + reach;
     return (vec3(x, i) - vec3(x, j)).squaredNorm() < cut * cut;
   };
+  // Rows are independent: counted and filled in parallel (the same list for any thread count).
+  const long ni = static_cast<long>(n);
+  const bool parallel = ni >= opt_.parallel_min;
   near_offset_.resize(n + 1);
   near_offset_[0] = 0;
-  for (std::size_t i = 0; i < n; ++i) {
+#pragma omp parallel for schedule(static) num_threads(threads()) if (parallel)
+  for (long i = 0; i < ni; ++i) {
     Index count = 0;
     for (Index e = pair_offset_[i]; e < pair_offset_[i + 1]; ++e) count += near(i, pair_partner_[e]);
-    near_offset_[i + 1] = near_offset_[i] + count;
+    near_offset_[i + 1] = count;
   }
+  for (std::size_t i = 0; i < n; ++i) near_offset_[i + 1] += near_offset_[i];
   const std::size_t m = static_cast<std::size_t>(near_offset_[n]);
   fit(near_owner_, m);
   fit(near_partner_, m);
   fit(near_cut2_, m);
-  for (std::size_t i = 0; i < n; ++i) {
+#pragma omp parallel for schedule(static) num_threads(threads()) if (parallel)
+  for (long i = 0; i < ni; ++i) {
     Index q = near_offset_[i];
     for (Index e = pair_offset_[i]; e < pair_offset_[i + 1]; ++e) {
       const Index j = pair_partner_[e];
@@ -326,7 +332,9 @@ void Simulation::refresh_near(bool transfer, bool reordered) {
       now_state[k] = (pair_state(k)->empty() || old_pair_state_[k].empty()) ? nullptr : pair_state(k);
     // (the stash holds touching entries only, rows sorted by partner id)
     const std::vector<double>& old_overlap = old_pair_state_[1];
-    for (std::size_t i = 0; i < n; ++i) {
+    // Each row writes only its own entries, its own old row and its own dissipation.
+#pragma omp parallel for schedule(static) num_threads(threads()) if (parallel)
+    for (long i = 0; i < ni; ++i) {
       Index oi = static_cast<Index>(i);
       if (reordered) {
         if (id_[i] >= static_cast<Id>(old_index_of_.size())) continue;  // added since
@@ -366,7 +374,8 @@ void Simulation::refresh_near(bool transfer, bool reordered) {
     fill.assign(near_rev_offset_.begin(), near_rev_offset_.end() - 1);
     for (std::size_t q = 0; q < m; ++q) near_rev_[fill[near_partner_[q]]++] = static_cast<Index>(q);
   }
-  for (std::size_t i = 0; i < n; ++i)
+#pragma omp parallel for schedule(static) num_threads(threads()) if (parallel)
+  for (long i = 0; i < ni; ++i)
     if (near_rev_offset_[i + 1] - near_rev_offset_[i] > 1)
       insertion_sort(near_rev_.data() + near_rev_offset_[i], near_rev_.data() + near_rev_offset_[i + 1],
                      [&](Index q) { return id_[near_owner_[q]]; });
