@@ -24,8 +24,8 @@ void insertion_sort(Index* first, Index* last, Key key) {
 
 // a[k] = a[perm[k]] (width values a particle), one component at a time through a scratch of n
 // values, so that no array is duplicated and every array keeps its exact capacity.
-template <class T>
-void permute(std::vector<T>& a, const std::vector<Index>& perm, int width, std::vector<T>& scratch) {
+template <class A>
+void permute(A& a, const Array<Index>& perm, int width, A& scratch) {
   const std::size_t n = perm.size();
   scratch.resize(n);
   for (int c = 0; c < width; ++c) {
@@ -37,7 +37,7 @@ void permute(std::vector<T>& a, const std::vector<Index>& perm, int width, std::
 // Resizes a per-entry array, growing its capacity by 1/8 rather than doubling: the lists change
 // size a little at every refresh, and memory per particle is a figure we report.
 template <class T>
-void fit(std::vector<T>& a, std::size_t size, T value = T()) {
+void fit(Array<T>& a, std::size_t size, T value = T()) {
   if (size > a.capacity()) a.reserve(size + size / 8);
   a.resize(size, value);
 }
@@ -78,7 +78,7 @@ void Simulation::sort_by_cell(double h, const Vec3& lo, const std::array<long, 3
   for (long c = 0; c < ncell; ++c) cell_start_[c + 1] += cell_start_[c];
   perm_.resize(n);
   {
-    std::vector<Index>& fill = scratch_int_;
+    Array<Index>& fill = scratch_int_;
     fill.assign(cell_start_.begin(), cell_start_.end() - 1);
     for (std::size_t k = 0; k < n; ++k) perm_[fill[cell_of_[k]]++] = static_cast<Index>(k);
   }
@@ -241,8 +241,8 @@ void Simulation::rebuild(bool keep_history) {
         for (Index q = old_wall_offset_[oi]; q < old_wall_offset_[oi + 1]; ++q)
           if (old_wall_index_[q] == wall_index_[e]) {
             for (std::size_t k = 0; k < kEntryArrays; ++k) {
-              const std::vector<double>& old = old_wall_state_[k];
-              std::vector<double>& now = *wall_state(k);
+              const Array<double>& old = old_wall_state_[k];
+              Array<double>& now = *wall_state(k);
               if (now.empty() || old.empty()) continue;  // the old or new law has no such array
               const std::size_t wd = kEntryWidth[k];
               std::copy(&old[wd * q], &old[wd * q] + wd, &now[wd * e]);
@@ -327,11 +327,11 @@ void Simulation::refresh_near(bool transfer, bool reordered) {
   if (transfer && old_n > 0) {
     // Only touching entries have state (an entry's results and history are zeroed when it
     // opens; a rough entry redraws its facet at first touch).
-    std::array<std::vector<double>*, kEntryArrays> now_state;
+    std::array<Array<double>*, kEntryArrays> now_state;
     for (std::size_t k = 0; k < kEntryArrays; ++k)
       now_state[k] = (pair_state(k)->empty() || old_pair_state_[k].empty()) ? nullptr : pair_state(k);
     // (the stash holds touching entries only, rows sorted by partner id)
-    const std::vector<double>& old_overlap = old_pair_state_[1];
+    const Array<double>& old_overlap = old_pair_state_[1];
     // Each row writes only its own entries, its own old row and its own dissipation.
 #pragma omp parallel for schedule(static) num_threads(threads()) if (parallel)
     for (long i = 0; i < ni; ++i) {
@@ -370,7 +370,7 @@ void Simulation::refresh_near(bool transfer, bool reordered) {
   for (std::size_t i = 0; i < n; ++i) near_rev_offset_[i + 1] += near_rev_offset_[i];
   fit(near_rev_, m);
   {
-    std::vector<Index>& fill = scratch_int_;
+    Array<Index>& fill = scratch_int_;
     fill.assign(near_rev_offset_.begin(), near_rev_offset_.end() - 1);
     for (std::size_t q = 0; q < m; ++q) near_rev_[fill[near_partner_[q]]++] = static_cast<Index>(q);
   }
@@ -436,19 +436,19 @@ void Simulation::cache_near_terms() {
   }
 }
 
-double Simulation::spring_energy(int a, int b, const std::vector<double>& xi, std::size_t e) const {
+double Simulation::spring_energy(int a, int b, const Array<double>& xi, std::size_t e) const {
   if (xi.empty()) return 0;
   return 0.5 * pairs_(a, b).kt * vec3(xi.data(), e).squaredNorm();
 }
 
-std::vector<double>* Simulation::pair_state(std::size_t k) {
-  std::vector<double>* arrays[kEntryArrays] = {&pair_xi_,   &pair_overlap_, &pair_force_,
+Array<double>* Simulation::pair_state(std::size_t k) {
+  Array<double>* arrays[kEntryArrays] = {&pair_xi_,   &pair_overlap_, &pair_force_,
                                                &pair_nxft_, &pair_roll_,    &pair_rough_};
   return arrays[k];
 }
 
-std::vector<double>* Simulation::wall_state(std::size_t k) {
-  std::vector<double>* arrays[kEntryArrays] = {&wall_xi_,   &wall_overlap_, &wall_force_,
+Array<double>* Simulation::wall_state(std::size_t k) {
+  Array<double>* arrays[kEntryArrays] = {&wall_xi_,   &wall_overlap_, &wall_force_,
                                                &wall_nxft_, &wall_roll_,    &wall_rough_};
   return arrays[k];
 }

@@ -434,7 +434,7 @@ void Simulation::report_overlap(double dt) const {
 }
 
 void Simulation::report_nonfinite() const {
-  auto finite_entry = [](const std::vector<double>& a, std::size_t e) {
+  auto finite_entry = [](const Array<double>& a, std::size_t e) {
     return a.empty() || finite3(a.data() + 3 * e);
   };
   for (std::size_t i = 0; i < n_; ++i) {
@@ -644,14 +644,14 @@ Energy Simulation::energy() const {
 std::vector<ContactInfo> Simulation::contacts() const {
   std::vector<ContactInfo> out;
   if (near_offset_.size() != n_ + 1) return out;
-  auto torque = [](const std::vector<double>& nxft, const std::vector<double>& roll, double r,
+  auto torque = [](const Array<double>& nxft, const Array<double>& roll, double r,
                    double overlap, std::size_t e) {
     Vec3 t = Vec3::Zero();
     if (!nxft.empty()) t -= (r - 0.5 * overlap) * vec3(nxft.data(), e);
     if (!roll.empty()) t += r * vec3(roll.data(), e);
     return t;
   };
-  auto history = [](const std::vector<double>& xi, std::size_t e) {
+  auto history = [](const Array<double>& xi, std::size_t e) {
     return xi.empty() ? Vec3(Vec3::Zero()) : Vec3(vec3(xi.data(), e));
   };
   for (std::size_t i = 0; i < n_; ++i) {

@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "material.hpp"
+#include "memory.hpp"
 #include "types.hpp"
 
 namespace tsubu {
@@ -226,12 +227,12 @@ class Simulation {
 
   // Particles (internal order).
   std::size_t n_ = 0;
-  std::vector<double> x_, v_, w_;
-  std::vector<double> radius_, mass_, inv_mass_, inv_inertia_, dissipated_;
-  std::vector<int> material_;
+  Array<double> x_, v_, w_;
+  Array<double> radius_, mass_, inv_mass_, inv_inertia_, dissipated_;
+  Array<int> material_;
   int sphere_material_ = -1;  // the one material of all spheres, else -1 (set when a run starts)
-  std::vector<Id> id_;
-  std::vector<Index> index_of_;  // id -> internal index
+  Array<Id> id_;
+  Array<Index> index_of_;  // id -> internal index
 
   // Two-level neighbour list (docs/architecture.md). The Verlet list holds every pair within
   // r_i + r_j + skin, each once, owned by the lower id, an owner's partners sorted by id. The
@@ -240,28 +241,28 @@ class Simulation {
   // Its entries keep the owner order and the partner-id order of the Verlet list, and a reverse
   // index sorted by owner id lets every particle sum its contacts in an order fixed by ids:
   // bit-identical results for any thread count and any rebuild schedule.
-  std::vector<Index> pair_offset_, pair_partner_;
-  std::vector<Index> near_offset_, near_owner_, near_partner_, near_rev_offset_, near_rev_;
-  std::vector<double> near_cut2_;  // (r_i + r_j)^2
-  std::vector<double> near_eta_;   // normal dashpot of the pair (B.9): a sqrt saved per contact
+  Array<Index> pair_offset_, pair_partner_;
+  Array<Index> near_offset_, near_owner_, near_partner_, near_rev_offset_, near_rev_;
+  Array<double> near_cut2_;  // (r_i + r_j)^2
+  Array<double> near_eta_;   // normal dashpot of the pair (B.9): a sqrt saved per contact
   // Particles with near-pair or near-wall entries: the only ones whose contacts can be summed;
   // and, per step, 1 for those with an entry in contact (set by the contact pass, cleared by
   // the particle pass).
-  std::vector<Index> busy_;
-  std::vector<std::uint8_t> loaded_;
+  Array<Index> busy_;
+  Array<std::uint8_t> loaded_;
   // Near-wall list: (particle, wall) entries within r + skin, by particle; they hold the wall
   // contact state. The step loop reads the subset within r + skin/10 (all of them if a wall
   // moves), refreshed with the near list: wall_near_ (entry indices, by particle).
-  std::vector<Index> wall_offset_, wall_index_, wall_owner_, wall_near_offset_, wall_near_;
+  Array<Index> wall_offset_, wall_index_, wall_owner_, wall_near_offset_, wall_near_;
   // Per-entry contact state: history (tangential displacement), overlap, and the results of the
   // last evaluation (force on the owner, n x F_t, rolling vector); zero while not touching.
-  std::vector<double> pair_xi_, pair_force_, pair_nxft_, pair_roll_, pair_overlap_;
-  std::vector<double> wall_xi_, wall_force_, wall_nxft_, wall_roll_, wall_overlap_;
+  Array<double> pair_xi_, pair_force_, pair_nxft_, pair_roll_, pair_overlap_;
+  Array<double> wall_xi_, wall_force_, wall_nxft_, wall_roll_, wall_overlap_;
   // 1 while an entry's spheres touch (same as overlap > 0; a byte is 8x cheaper to stream).
-  std::vector<std::uint8_t> pair_touch_, wall_touch_;
+  Array<std::uint8_t> pair_touch_, wall_touch_;
   // Roughness state per entry (6 values, step.hpp): tilt or tilted normal, facet offset,
   // first-touch step, spin term.
-  std::vector<double> pair_rough_, wall_rough_;
+  Array<double> pair_rough_, wall_rough_;
   // Neighbour-list bookkeeping: bounds on the distance any particle moved since the last Verlet
   // rebuild and since the last near-list refresh (sums of dt max|v| over the steps).
   bool list_valid_ = false;
@@ -272,20 +273,20 @@ class Simulation {
   long rebuilds_ = 0, refreshes_ = 0;
   std::array<double, int(Phase::Count)> phase_seconds_{};
   // Scratch reused by rebuilds and steps (no allocation once warm).
-  std::vector<Index> cell_start_, cell_of_, perm_, old_index_of_, active_;
-  std::vector<Index> old_near_offset_, old_wall_offset_, old_wall_index_;
-  std::vector<Id> old_near_partner_id_;
+  Array<Index> cell_start_, cell_of_, perm_, old_index_of_, active_;
+  Array<Index> old_near_offset_, old_wall_offset_, old_wall_index_;
+  Array<Id> old_near_partner_id_;
   // Per-entry state carried across refreshes: history, overlap, force, n x F, rolling vector,
   // roughness. The near list's is stashed compactly (touching entries only, rows by owner in
   // old_near_offset_), the walls' whole.
   static constexpr std::size_t kEntryArrays = 6;
   static constexpr std::size_t kEntryWidth[kEntryArrays] = {3, 1, 3, 3, 3, 6};
-  std::vector<double>* pair_state(std::size_t k);
-  std::vector<double>* wall_state(std::size_t k);
-  std::array<std::vector<double>, kEntryArrays> old_pair_state_, old_wall_state_;
-  std::vector<std::uint8_t> old_touch_;
-  std::vector<double> scratch_;
-  std::vector<int> scratch_int_;
+  Array<double>* pair_state(std::size_t k);
+  Array<double>* wall_state(std::size_t k);
+  std::array<Array<double>, kEntryArrays> old_pair_state_, old_wall_state_;
+  Array<std::uint8_t> old_touch_;
+  Array<double> scratch_;
+  Array<int> scratch_int_;
 
   // Run state.
   long step_ = 0;
@@ -317,7 +318,7 @@ class Simulation {
   // near_eta_ from the current pair table (after a refresh, or when parameters change).
   void cache_near_terms();
   // The energy a contact loses when it opens (its tangential spring; step.hpp releases).
-  double spring_energy(int material_a, int material_b, const std::vector<double>& xi,
+  double spring_energy(int material_a, int material_b, const Array<double>& xi,
                        std::size_t e) const;
   void size_entry_buffers();
   void sort_by_cell(double cell_size, const Vec3& lo, const std::array<long, 3>& dims);
@@ -339,6 +340,15 @@ struct ContactSums {
         wn(s.wall_nxft_.data()), wr(s.wall_roll_.data()), wo(s.wall_overlap_.data()),
         pf(s.pair_force_.data()), pn(s.pair_nxft_.data()), pr(s.pair_roll_.data()),
         po(s.pair_overlap_.data()) {}
+
+  // Requests particle k's offsets and velocities ahead of at(k).
+  void prefetch(Index k, const double* v, const double* w) const {
+    __builtin_prefetch(woff + k);
+    __builtin_prefetch(noff + k);
+    __builtin_prefetch(roff + k);
+    __builtin_prefetch(v + 3 * k, 1);
+    __builtin_prefetch(w + 3 * k, 1);
+  }
 
   // kWallLever: walls store n x F_t; kPairLever: pairs store n x F; kRolling: rolling vectors.
   template <bool kWallLever, bool kPairLever, bool kRolling>
