@@ -1,6 +1,5 @@
 #include "tsubu/memory.hpp"
 
-#include <algorithm>
 #include <atomic>
 #include <cstdint>
 #include <cstdlib>

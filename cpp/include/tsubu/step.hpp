@@ -657,9 +657,10 @@ struct Stepper {
       Index list[kChunk];
       for (Index c0 = lo; c0 < hi; c0 += kChunk) {
         const Index c1 = std::min(hi, c0 + kChunk);
-        // The chunk's particles in contact, found without branches; then their sums, with the
-        // offsets and velocities of the one kAhead places on requested early (at N = 1e6 the
-        // particles in contact are a few per cent, scattered, and each read waits on memory).
+        // The chunk's particles in contact, listed without branches; then their sums, each
+        // prefetching the offsets and velocities of the particle kAhead places further down the
+        // list (at N = 1e6 the particles in contact are a few per cent, scattered, and each read
+        // would otherwise wait on memory).
         Index count = 0;
         for (; b < nb && busy[b] < c1; ++b) {
           const Index k = busy[b];
