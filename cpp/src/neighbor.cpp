@@ -400,10 +400,41 @@ void Simulation::refresh_near(bool transfer, bool reordered) {
     if (wall_near_offset_[i + 1] > wall_near_offset_[i] || near_offset_[i + 1] > near_offset_[i] ||
         near_rev_offset_[i + 1] > near_rev_offset_[i])
       busy_.push_back(static_cast<Index>(i));
+  build_sum_entries();
   fit(active_, wall_near_.size());  // the walls in contact (step.hpp)
   cache_near_terms();
   moved_near_ = 0;
   ++refreshes_;
+}
+
+void Simulation::build_sum_entries() {
+  const std::size_t nb = busy_.size();
+  const std::size_t largest = std::max(near_partner_.size(), wall_index_.size());
+  if (largest >= (std::size_t(1) << 29)) {  // no room for the tags: the particle pass loops
+    sum_offset_.clear();
+    sum_entry_.clear();
+    return;
+  }
+  fit(sum_offset_, nb + 1);
+  sum_offset_[0] = 0;
+  for (std::size_t b = 0; b < nb; ++b) {
+    const Index k = busy_[b];
+    sum_offset_[b + 1] = sum_offset_[b] + (wall_near_offset_[k + 1] - wall_near_offset_[k]) +
+                         (near_offset_[k + 1] - near_offset_[k]) +
+                         (near_rev_offset_[k + 1] - near_rev_offset_[k]);
+  }
+  fit(sum_entry_, static_cast<std::size_t>(sum_offset_[nb]));
+  const long nbl = static_cast<long>(nb);
+#pragma omp parallel for schedule(static) num_threads(threads()) if (long(n_) >= opt_.parallel_min)
+  for (long b = 0; b < nbl; ++b) {
+    const Index k = busy_[b];
+    std::uint32_t* out = sum_entry_.data() + sum_offset_[b];
+    auto put = [&](Index e, std::uint32_t kind) { *out++ = (std::uint32_t(e) << 3) | kind; };
+    for (Index p = wall_near_offset_[k]; p < wall_near_offset_[k + 1]; ++p) put(wall_near_[p], 2);
+    for (Index q = near_offset_[k]; q < near_offset_[k + 1]; ++q) put(q, 0);
+    for (Index p = near_rev_offset_[k]; p < near_rev_offset_[k + 1]; ++p) put(near_rev_[p], 1);
+    sum_entry_[sum_offset_[b]] |= 4u;  // a busy particle has at least one entry
+  }
 }
 
 void Simulation::size_entry_buffers() {

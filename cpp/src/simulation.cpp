@@ -684,11 +684,11 @@ std::vector<std::pair<std::string, std::size_t>> Simulation::memory_bytes() cons
     old_state += bytes(old_pair_state_[k]) + bytes(old_wall_state_[k]);
   return {
       {"particles", bytes(x_, v_, w_, radius_, mass_, inv_mass_, inv_inertia_, dissipated_,
-                          material_, id_, index_of_, busy_, loaded_)},
+                          material_, id_, index_of_, busy_, loaded_, sum_offset_)},
       {"verlet list", bytes(pair_offset_, pair_partner_)},
       {"near list", bytes(near_offset_, near_owner_, near_partner_, near_rev_offset_, near_rev_,
                           near_cut2_, near_eta_, pair_xi_, pair_force_, pair_nxft_, pair_roll_,
-                          pair_overlap_, pair_touch_, pair_rough_)},
+                          pair_overlap_, pair_touch_, pair_rough_, sum_entry_)},
       {"walls", bytes(wall_offset_, wall_index_, wall_owner_, wall_near_offset_, wall_near_,
                       wall_xi_, wall_force_, wall_nxft_, wall_roll_, wall_overlap_, wall_touch_,
                       wall_rough_)},

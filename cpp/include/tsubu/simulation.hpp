@@ -250,6 +250,12 @@ class Simulation {
   // the particle pass).
   Array<Index> busy_;
   Array<std::uint8_t> loaded_;
+  // Every busy particle's entries in the order its sums take them (ContactSums::at), flat, so
+  // the particle pass of a dense scene sums them in one loop without a branch per particle:
+  // (entry << 3) | (first of its particle << 2) | kind (0 owned pair, 1 reverse pair, 2 wall);
+  // sum_offset_[b] is busy particle b's first. Empty if an entry index does not fit.
+  Array<std::uint32_t> sum_entry_;
+  Array<Index> sum_offset_;
   // Near-wall list: (particle, wall) entries within r + skin, by particle; they hold the wall
   // contact state. The step loop reads the subset within r + skin/10 (all of them if a wall
   // moves), refreshed with the near list: wall_near_ (entry indices, by particle).
@@ -315,6 +321,8 @@ class Simulation {
   // A touching entry that does not carry over (its spheres jumped apart by more than the skin
   // in one step) has opened: its spring energy is booked as lost, as the step would have.
   void refresh_near(bool transfer, bool reordered);
+  // sum_entry_ and sum_offset_ from the near list, the reverse index and the near-wall list.
+  void build_sum_entries();
   // near_eta_ from the current pair table (after a refresh, or when parameters change).
   void cache_near_terms();
   // The energy a contact loses when it opens (its tangential spring; step.hpp releases).
