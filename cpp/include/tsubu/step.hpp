@@ -699,6 +699,16 @@ struct Stepper {
       const Index lo = Index(std::int64_t(n) * t / nt), hi = Index(std::int64_t(n) * (t + 1) / nt);
       Index b = Index(std::lower_bound(busy, busy + nb, lo) - busy);
       Index list[kChunk];
+      // Particle k in contact takes its sums: v += dt F/m, w += dt T/I.
+      auto kick = [&](Index k, const auto& F, const auto& T) {
+        loaded[k] = 0;
+        vec3(v, k) += (dt * inv_m[k]) * F;
+        if constexpr (kTorque) {
+          const Vec3 wk = vec3(w, k) + (dt * inv_i[k]) * T;
+          vec3(w, k) = wk;
+          check += wk.sum() * 0.0;  // NaN or inf stay so
+        }
+      };
       for (Index c0 = lo; c0 < hi; c0 += kChunk) {
         const Index c1 = std::min(hi, c0 + kChunk);
         // The chunk's particles in contact, listed without branches; then their sums, each
@@ -721,16 +731,9 @@ struct Stepper {
             for (Index a = r0; a < r1; ++a) rads[a - r0] = s.radius_[busy[a]];
             flat_sums(sum_entry, sum_offset[r0], sum_offset[r1], sums, rads, out);
             for (Index a = r0; a < r1; ++a) {
-              const Index k = busy[a];
-              if (!loaded[k]) continue;
-              loaded[k] = 0;
               const double* o = out + 8 * (a - r0);
-              vec3(v, k) += (dt * inv_m[k]) * Eigen::Map<const Vec3>(o);
-              if constexpr (kTorque) {
-                const Vec3 wk = vec3(w, k) + (dt * inv_i[k]) * Eigen::Map<const Vec3>(o + 4);
-                vec3(w, k) = wk;
-                check += wk.sum() * 0.0;
-              }
+              if (loaded[busy[a]])
+                kick(busy[a], Eigen::Map<const Vec3>(o), Eigen::Map<const Vec3>(o + 4));
             }
           }
           count = 0;
@@ -738,15 +741,9 @@ struct Stepper {
         for (Index a = 0; a < count; ++a) {
           if (a + kAhead < count) sums.prefetch(list[a + kAhead], v, w);
           const Index k = list[a];
-          loaded[k] = 0;
           Vec3 F = Vec3::Zero(), T = Vec3::Zero();
           sums.template at<kTangential, kTangential || kRough, kRolling>(k, F, T);
-          vec3(v, k) += (dt * inv_m[k]) * F;
-          if constexpr (kTorque) {
-            const Vec3 wk = vec3(w, k) + (dt * inv_i[k]) * T;
-            vec3(w, k) = wk;
-            check += wk.sum() * 0.0;  // NaN or inf stay so
-          }
+          kick(k, F, T);
         }
         double part_vmax2 = 0, part_check = 0;
         drift(x, v, c0, c1, dt, gx, gy, gz, part_vmax2, part_check);
