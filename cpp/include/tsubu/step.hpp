@@ -462,33 +462,92 @@ struct Stepper {
     return bad != 0;
   }
 
+  // Where one kind of entry (near pairs, near walls) keeps its results.
+  struct Results {
+    std::uint8_t* touch;
+    double *overlap, *force, *nxft, *xi;
+  };
+
+  // Lane a of a block back to entry q: its results, or, where the contact has just opened,
+  // zeros and the energy its tangential spring held. Returns the energy lost this step.
+  TSUBU_INLINE static double store_lane(const Results& r, Index q, const Block& b, int a,
+                                        double dt) {
+    double lost = 0;
+    if (b.inside[a]) {
+      r.touch[q] = 1;
+      r.overlap[q] = b.delta[a];
+      double* f = r.force + 3 * q;
+      f[0] = b.fx[a], f[1] = b.fy[a], f[2] = b.fz[a];
+      if constexpr (kTangential) {
+        double* t = r.nxft + 3 * q;
+        t[0] = b.tx[a], t[1] = b.ty[a], t[2] = b.tz[a];
+        double* xi = r.xi + 3 * q;
+        xi[0] = b.xix[a], xi[1] = b.xiy[a], xi[2] = b.xiz[a];
+      }
+      lost = b.power[a] * dt;
+    } else {
+      r.touch[q] = 0;
+      r.overlap[q] = 0;
+      vec3(r.force, q).setZero();
+      if constexpr (kHistory) release(b.kt[a], r.xi + 3 * q, lost);
+      if constexpr (kTangential) vec3(r.nxft, q).setZero();
+    }
+    return lost;
+  }
+
   static void store(const Pass& c, const Index* act, int len, const Block& b) {
+    const Results pairs{c.touch, c.overlap, c.force, c.nxft, c.xi};
     for (int a = 0; a < len; ++a) {
       const Index q = act[a], i = c.own[q];
-      double lost = 0;
+      const double lost = store_lane(pairs, q, b, a, c.dt);
       if (b.inside[a]) {
-        c.touch[q] = 1;
-        c.overlap[q] = b.delta[a];
-        double* f = c.force + 3 * q;
-        f[0] = b.fx[a], f[1] = b.fy[a], f[2] = b.fz[a];
-        if constexpr (kTangential) {
-          double* t = c.nxft + 3 * q;
-          t[0] = b.tx[a], t[1] = b.ty[a], t[2] = b.tz[a];
-          double* xi = c.xi + 3 * q;
-          xi[0] = b.xix[a], xi[1] = b.xiy[a], xi[2] = b.xiz[a];
-        }
-        lost = b.power[a] * c.dt;
         mark(c.loaded, i);
         mark(c.loaded, c.par[q]);
-      } else {
-        c.touch[q] = 0;
-        c.overlap[q] = 0;
-        vec3(c.force, q).setZero();
-        if constexpr (kHistory) release(b.kt[a], c.xi + 3 * q, lost);
-        if constexpr (kTangential) vec3(c.nxft, q).setZero();
       }
       if (lost != 0) c.diss[i] += lost;
     }
+  }
+
+  // Near-wall entries e[0, len) in contact or just released, as wall_entry for each, in order,
+  // through the same block as pairs: the law's lanes take a wall as a partner with no radius,
+  // no spin and the plane's material. Returns true if a force is not finite.
+  static bool wall_block(const Pass& c, const Index* e, int len, Block& b, double& excess) {
+    for (int a = 0; a < len; ++a) {
+      const Index i = c.wown[e[a]];
+      const Plane& P = c.planes[c.wall[e[a]]];
+      const PairParams& p = (*c.table)(c.mat[i], P.material);
+      const Vec3 xi_pos = vec3(c.x, i);
+      const double ri = c.r[i];
+      const double delta = ri - P.normal.dot(xi_pos - P.point);  // (3.1), signed: a half-space
+      b.inside[a] = delta > 0;
+      if (b.inside[a]) excess = std::max(excess, delta - c.limit * ri);
+      const double ci = ri - 0.5 * delta;
+      Vec3 vrel = vec3(c.v, i);
+      if constexpr (MovingWalls) {
+        const Vec3 contact = xi_pos - ci * P.normal;
+        vrel -= P.velocity + P.angular_velocity.cross(contact - P.point);
+      }
+      const double vn = vrel.dot(P.normal);
+      Vec3 vt = Vec3::Zero();
+      if constexpr (kTangential) vt = vrel - vn * P.normal - (ci * vec3(c.w, i)).cross(P.normal);
+      b.nx[a] = P.normal.x(), b.ny[a] = P.normal.y(), b.nz[a] = P.normal.z();
+      b.vtx[a] = vt.x(), b.vty[a] = vt.y(), b.vtz[a] = vt.z();
+      b.delta[a] = delta, b.vn[a] = vn, b.eta[a] = HookeNormal::damping(p, c.m[i]);
+      b.kn[a] = p.kn, b.kt[a] = p.kt, b.mu[a] = p.friction, b.td[a] = p.tangential_damping;
+      if constexpr (kHistory) {
+        const double* xi = c.wxi + 3 * e[a];
+        b.xix[a] = xi[0], b.xiy[a] = xi[1], b.xiz[a] = xi[2];
+      }
+    }
+    const bool bad = evaluate_block(b, len, c.dt);
+    const Results walls{c.wtouch, c.woverlap, c.wforce, c.wnxft, c.wxi};
+    for (int a = 0; a < len; ++a) {
+      const Index i = c.wown[e[a]];
+      const double lost = store_lane(walls, e[a], b, a, c.dt);
+      if (b.inside[a]) mark(c.loaded, i);
+      if (lost != 0) c.diss[i] += lost;
+    }
+    return bad;
   }
 
   // [lo, hi) of part t of nt of an entry list sorted by owner, cut at owner boundaries, so that
@@ -587,13 +646,22 @@ struct Stepper {
         const double gap = P.normal.dot(vec3(c.x, c.wown[e]) - P.point) - c.r[c.wown[e]];
         return (gap < 0) | (c.wtouch[e] != 0);
       });
-      for (Index a = 0; a < wcount; ++a) {
-        const Index e = c.wnear[wact[wlo + a]];
-        const double lost = wall_entry(c, e, excess);
-        if (lost != 0) c.diss[c.wown[e]] += lost;
-        if (c.wtouch[e]) mark(c.loaded, c.wown[e]);
-        const double sum = vec3(c.wforce, e).sum();
-        if (!(sum - sum == 0)) bad = 1;
+      if constexpr (kBlocked) {
+        Index e[kBlock];
+        for (Index a0 = 0; a0 < wcount; a0 += kBlock) {
+          const int len = int(std::min<Index>(kBlock, wcount - a0));
+          for (int a = 0; a < len; ++a) e[a] = c.wnear[wact[wlo + a0 + a]];
+          if (wall_block(c, e, len, block, excess)) bad = 1;
+        }
+      } else {
+        for (Index a = 0; a < wcount; ++a) {
+          const Index e = c.wnear[wact[wlo + a]];
+          const double lost = wall_entry(c, e, excess);
+          if (lost != 0) c.diss[c.wown[e]] += lost;
+          if (c.wtouch[e]) mark(c.loaded, c.wown[e]);
+          const double sum = vec3(c.wforce, e).sum();
+          if (!(sum - sum == 0)) bad = 1;
+        }
       }
     }
     excess_out = excess;
