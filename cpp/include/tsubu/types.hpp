@@ -2,6 +2,7 @@
 #pragma once
 #include <Eigen/Core>
 #include <Eigen/Geometry>
+#include <cmath>
 #include <cstdint>
 #include <stdexcept>
 #include <string>
@@ -25,6 +26,18 @@ using Id = std::int64_t;      // stable particle id: the order in which spheres 
 inline Eigen::Map<Vec3> vec3(double* a, std::size_t i) { return Eigen::Map<Vec3>(a + 3 * i); }
 inline Eigen::Map<const Vec3> vec3(const double* a, std::size_t i) {
   return Eigen::Map<const Vec3>(a + 3 * i);
+}
+
+// a b + c, rounded once where the CPU fuses multiply-adds, twice where it does not. The build
+// never contracts a*b+c on its own (-ffp-contract=off), so that the scalar and the vectorised
+// form of a law agree bit for bit; the laws' lane arithmetic (contact/geometry.hpp) asks for
+// the fused form here, explicitly, in both.
+TSUBU_INLINE double mul_add(double a, double b, double c) {
+#ifdef __FP_FAST_FMA
+  return std::fma(a, b, c);
+#else
+  return a * b + c;
+#endif
 }
 
 // Thrown for bad arguments from C++ callers (the Python layer checks first and names arguments).

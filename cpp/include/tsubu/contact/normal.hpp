@@ -15,7 +15,7 @@ struct HookeNormal {
   }
   // f_n = k_n delta - eta_n v_n along n (1.6); not clipped at zero, as (B.9) assumes.
   TSUBU_INLINE static double force(double kn, double delta, double eta_n, double vn) {
-    return kn * delta - eta_n * vn;
+    return mul_add(kn, delta, -(eta_n * vn));
   }
   TSUBU_INLINE static double force(const ContactGeometry& g, const PairParams& p, double eta_n) {
     return force(p.kn, g.delta, eta_n, g.vn);

@@ -25,7 +25,7 @@ namespace detail {
 template <bool kTruncate = false>
 TSUBU_INLINE L3 coulomb(L3 vt, double kt, double eta_t, double cap, double dt, L3 trial, L3 frozen,
                         L3& xi, double& power) {
-  const L3 ft = -kt * trial - eta_t * vt;  // (1.11)
+  const L3 ft = mul_add(-kt, trial, -(eta_t * vt));  // (1.11)
   const double ft2 = dot(ft, ft);
   const bool slip = ft2 > cap * cap;
   const double stick_power = eta_t * dot(vt, vt);
@@ -85,7 +85,7 @@ struct TangentialRotateRule {
     const double series = 1.0 + eps * (0.5 + 0.375 * eps), exact = std::sqrt(len2 / rot2);
     const double scale = eps < 1e-5 ? series : (rot2 > 0 ? exact : 1.0);
     const L3 rot = select(along != 0, scale * flat, flat);
-    const L3 trial = rot + dt * vt;  // (1.13) one step
+    const L3 trial = mul_add(dt, vt, rot);  // (1.13) one step
     return detail::coulomb<kTruncate>(vt, kt, eta_t, cap, dt, trial, rot, xi, power);
   }
   TSUBU_INLINE static Vec3 evaluate(const ContactGeometry& g, const PairParams& p, double eta_t,
