@@ -309,6 +309,21 @@ struct Stepper {
     return res.power * dt;
   }
 
+  // A wall contact's approach along n at the contact point x_i - c n (lever c = r - delta/2,
+  // set in `ci`): returns v_n; sets the tangential velocity (1.12) where the law has one.
+  static double wall_approach(const Pass& c, const Plane& P, Index i, const Vec3& n, double delta,
+                              double& ci, Vec3& vt) {
+    ci = c.r[i] - 0.5 * delta;
+    Vec3 vrel = vec3(c.v, i);
+    if constexpr (MovingWalls) {
+      const Vec3 contact = vec3(c.x, i) - ci * n;
+      vrel -= P.velocity + P.angular_velocity.cross(contact - P.point);
+    }
+    const double vn = vrel.dot(n);
+    if constexpr (kTangential) vt = vrel - vn * n - (ci * vec3(c.w, i)).cross(n);
+    return vn;
+  }
+
   // One near-wall entry that touches, or touched last step. Returns the energy it lost; raises
   // `excess` as pair_entry.
   static double wall_entry(const Pass& c, Index e, double& excess) {
@@ -348,15 +363,8 @@ struct Stepper {
     excess = std::max(excess, delta - c.limit * ri);
     g.m_eff = c.m[i];
     g.eta_n = HookeNormal::damping(params, g.m_eff);
-    g.ci = ri - 0.5 * delta;
     g.cj = 0;
-    Vec3 vrel = vec3(c.v, i);
-    if constexpr (MovingWalls) {
-      const Vec3 contact = xi_pos - g.ci * g.n;
-      vrel -= P.velocity + P.angular_velocity.cross(contact - P.point);
-    }
-    g.vn = vrel.dot(g.n);
-    if constexpr (kTangential) g.vt = vrel - g.vn * g.n - (g.ci * vec3(c.w, i)).cross(g.n);
+    g.vn = wall_approach(c, P, i, n, delta, g.ci, g.vt);
     if constexpr (kRolling) {
       g.w_rel = vec3(c.w, i);
       if constexpr (MovingWalls) g.w_rel -= P.angular_velocity;
@@ -521,15 +529,9 @@ struct Stepper {
       const double delta = ri - P.normal.dot(xi_pos - P.point);  // (3.1), signed: a half-space
       b.inside[a] = delta > 0;
       if (b.inside[a]) excess = std::max(excess, delta - c.limit * ri);
-      const double ci = ri - 0.5 * delta;
-      Vec3 vrel = vec3(c.v, i);
-      if constexpr (MovingWalls) {
-        const Vec3 contact = xi_pos - ci * P.normal;
-        vrel -= P.velocity + P.angular_velocity.cross(contact - P.point);
-      }
-      const double vn = vrel.dot(P.normal);
+      double ci;
       Vec3 vt = Vec3::Zero();
-      if constexpr (kTangential) vt = vrel - vn * P.normal - (ci * vec3(c.w, i)).cross(P.normal);
+      const double vn = wall_approach(c, P, i, P.normal, delta, ci, vt);
       b.nx[a] = P.normal.x(), b.ny[a] = P.normal.y(), b.nz[a] = P.normal.z();
       b.vtx[a] = vt.x(), b.vty[a] = vt.y(), b.vtz[a] = vt.z();
       b.delta[a] = delta, b.vn[a] = vn, b.eta[a] = HookeNormal::damping(p, c.m[i]);
