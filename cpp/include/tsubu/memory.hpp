@@ -3,7 +3,8 @@
 // at N = 1e6 the step reads partners' positions and contact entries all over tens of MiB, and
 // with 4 KiB pages most of those reads also miss the TLB. Each starts 0-63 cache lines into its
 // first huge page, so that element k of different arrays does not share a cache set. Smaller
-// arrays come from operator new.
+// arrays come from operator new. Every array has kTail bytes allocated past its capacity, so that
+// a 4-wide load of its last 3-vector (step.hpp, load4) stays inside the allocation.
 #pragma once
 #include <cstddef>
 #include <new>
@@ -13,6 +14,7 @@ namespace tsubu {
 
 namespace detail {
 constexpr std::size_t kLargePage = std::size_t(2) << 20;
+constexpr std::size_t kTail = 32;
 // `bytes` (>= kLargePage) less than 4 KiB past a kLargePage boundary; throws std::bad_alloc.
 void* map_large(std::size_t bytes);
 void unmap_large(void* p, std::size_t bytes);
@@ -26,12 +28,12 @@ struct LargePageAllocator {
   LargePageAllocator(const LargePageAllocator<U>&) noexcept {}
 
   T* allocate(std::size_t n) {
-    const std::size_t bytes = n * sizeof(T);
+    const std::size_t bytes = n * sizeof(T) + detail::kTail;
     if (bytes >= detail::kLargePage) return static_cast<T*>(detail::map_large(bytes));
     return static_cast<T*>(::operator new(bytes));
   }
   void deallocate(T* p, std::size_t n) noexcept {
-    const std::size_t bytes = n * sizeof(T);
+    const std::size_t bytes = n * sizeof(T) + detail::kTail;
     if (bytes >= detail::kLargePage)
       detail::unmap_large(p, bytes);
     else

@@ -409,27 +409,32 @@ struct Stepper {
     }
   };
 
-  // Entries act[0, len) (their 1/|x_ij| in inv_dist), len <= kBlock, as pair_entry for each, in
-  // order. Returns true if a force is not finite.
-  static bool pair_block(const Pass& c, const Index* act, const double* inv_dist, int len,
-                         Block& b, double& excess) {
+  // The pair entries of a chunk that are in contact or were last step, as the scan keeps them:
+  // entry, x_i - x_j, its squared length and 1/|x_ij|.
+  struct Scan {
+    Index act[kBlock];
+    double dx[kBlock], dy[kBlock], dz[kBlock], d2[kBlock], inv[kBlock];
+  };
+
+  // Entries s.act[0, len), len <= kBlock, as pair_entry for each, in order. Returns true if a
+  // force is not finite.
+  static bool pair_block(const Pass& c, const Scan& s, int len, Block& b, double& excess) {
     if (c.same)
-      gather<true>(c, act, inv_dist, len, b, excess);
+      gather<true>(c, s, len, b, excess);
     else
-      gather<false>(c, act, inv_dist, len, b, excess);
+      gather<false>(c, s, len, b, excess);
     const bool bad = evaluate_block(b, len, c.dt);
-    store(c, act, len, b);
+    store(c, s.act, len, b);
     return bad;
   }
 
   template <bool kSame>
-  static void gather(const Pass& c, const Index* act, const double* inv_dist, int len, Block& b,
-                     double& excess) {
+  static void gather(const Pass& c, const Scan& s, int len, Block& b, double& excess) {
     for (int a = 0; a < len; ++a) {
-      const Index q = act[a], i = c.own[q], j = c.par[q];
+      const Index q = s.act[a], i = c.own[q], j = c.par[q];
       const double ri = c.r[i], rj = c.r[j];
-      const L3 d = lanes(vec3(c.x, i) - vec3(c.x, j));
-      const double dist2 = dot(d, d), inv = inv_dist[a];
+      const L3 d{s.dx[a], s.dy[a], s.dz[a]};
+      const double dist2 = s.d2[a], inv = s.inv[a];
       const double delta = (ri + rj) - dist2 * inv;
       const L3 n = inv * d;
       const double ci = ri - 0.5 * delta, cj = rj - 0.5 * delta;
@@ -573,14 +578,14 @@ struct Stepper {
     return count;
   }
 
-  // The same for pairs, keeping each kept entry's squared distance in `d2`.
-  static Index compact_pairs(const Pass& c, Index lo, Index hi, Index* act, double* d2) {
+  // The same for pairs; the separations found on the way are kept for the law.
+  static Index compact_pairs(const Pass& c, Index lo, Index hi, Scan& s) {
     Index count = 0;
     for (Index q = lo; q < hi; ++q) {
       const L3 d = lanes(vec3(c.x, c.own[q]) - vec3(c.x, c.par[q]));
       const double dd = dot(d, d);
-      act[count] = q;
-      d2[count] = dd;
+      s.act[count] = q;
+      s.dx[count] = d.x, s.dy[count] = d.y, s.dz[count] = d.z, s.d2[count] = dd;
       count += ((dd < c.cut2[q]) | (c.touch[q] != 0)) ? 1 : 0;
     }
     return count;
@@ -588,8 +593,8 @@ struct Stepper {
 
   // 1/|x_ij| of every kept pair, in one pass that the compiler vectorises: the square roots and
   // divisions then leave the contact law's critical path.
-  [[gnu::noinline]] static void inverse_distances(double* d2, Index count) {
-    for (Index a = 0; a < count; ++a) d2[a] = 1.0 / std::sqrt(d2[a]);
+  [[gnu::noinline]] static void inverse_distances(Scan& s, Index count) {
+    for (Index a = 0; a < count; ++a) s.inv[a] = 1.0 / std::sqrt(s.d2[a]);
   }
 
   // Flags particle k as having a contact this step (threads may flag the same one).
@@ -616,18 +621,17 @@ struct Stepper {
       const Index lo = part_start(pair_owner, np, t, nt), hi = part_start(pair_owner, np, t + 1, nt);
       // A chunk of near entries at a time: the particles the scan reads are still in the
       // nearest cache when the contacts among them are evaluated.
-      Index act[kBlock];
-      double inv[kBlock];
+      Scan scan;
       Block block(c.same);
       for (Index base = lo; base < hi; base += kBlock) {
-        const Index count = compact_pairs(c, base, std::min<Index>(hi, base + kBlock), act, inv);
-        inverse_distances(inv, count);
+        const Index count = compact_pairs(c, base, std::min<Index>(hi, base + kBlock), scan);
+        inverse_distances(scan, count);
         if constexpr (kBlocked) {
-          if (pair_block(c, act, inv, int(count), block, excess)) bad = 1;
+          if (pair_block(c, scan, int(count), block, excess)) bad = 1;
         } else {
           for (Index a = 0; a < count; ++a) {
-            const Index q = act[a];
-            const double lost = pair_entry(c, q, inv[a], excess);
+            const Index q = scan.act[a];
+            const double lost = pair_entry(c, q, scan.inv[a], excess);
             if (lost != 0) c.diss[c.own[q]] += lost;
             if (c.touch[q]) {
               mark(c.loaded, c.own[q]);
@@ -716,7 +720,13 @@ struct Stepper {
   // Four doubles as one value (GCC's vector extension: an AVX register where there is one).
   typedef double V4 __attribute__((vector_size(32)));
   typedef std::int64_t M4 __attribute__((vector_size(32)));
-  TSUBU_INLINE static V4 load3(const double* a) { return V4{a[0], a[1], a[2], 0.0}; }
+  // a[0..2] and, in the fourth lane, whatever follows (the next entry, or the allocator's tail,
+  // memory.hpp): one load instead of three; the fourth lane of the sums is never read.
+  TSUBU_INLINE static V4 load4(const double* a) {
+    V4 r;
+    std::memcpy(&r, a, sizeof r);
+    return r;
+  }
 
   [[gnu::noinline]] static void flat_sums(const std::uint32_t* __restrict entry, Index p0, Index p1,
                                           const ContactSums& sums, const double* rads,
@@ -735,11 +745,11 @@ struct Stepper {
       const std::int64_t first = (u >> 2) & 1u;
       const M4 keep = M4{} + (first - 1);  // all ones but at a particle's first entry: from +0
       slot += Index(first);
-      F = V4(M4(F) & keep) + sign[kind] * load3(force[kind] + 3 * e);
+      F = V4(M4(F) & keep) + sign[kind] * load4(force[kind] + 3 * e);
       std::memcpy(out + 8 * slot, &F, sizeof F);
       if constexpr (kTangential) {  // (1.19): both sides of a pair take -(r - overlap/2) n x F_t
         const double lever = rads[slot] - 0.5 * overlap[kind][e];
-        T = V4(M4(T) & keep) - lever * load3(moment[kind] + 3 * e);
+        T = V4(M4(T) & keep) - lever * load4(moment[kind] + 3 * e);
         std::memcpy(out + 8 * slot + 4, &T, sizeof T);
       }
     }
