@@ -32,10 +32,12 @@ TSUBU_INLINE L3 coulomb(L3 vt, double kt, double eta_t, double cap, double dt, L
   if constexpr (kTruncate) {
     // The rule of LAMMPS (gran/hooke/history) and SCENE.md: the trial force is scaled down to
     // the cap in its own direction, and the displacement truncated to match.
+    // (Divisions are the lane's slowest operations: one reciprocal each for kt and dt.)
     const L3 fs = (cap / std::sqrt(ft2)) * ft;
-    const L3 cut = -(fs + eta_t * vt) / kt;
+    const L3 cut = -(1.0 / kt) * (fs + eta_t * vt);
     // dissipated = work against the slip + the spring energy cut off
-    const double slip_power = -dot(fs, vt) + 0.5 * kt * (dot(frozen, frozen) - dot(cut, cut)) / dt;
+    const double slip_power =
+        -dot(fs, vt) + (0.5 * kt * (dot(frozen, frozen) - dot(cut, cut))) * (1.0 / dt);
     xi = select(slip, cut, trial);
     power += slip ? slip_power : stick_power;
     return select(slip, fs, ft);
