@@ -509,15 +509,21 @@ struct Stepper {
   }
 
   static void store(const Pass& c, const Index* act, int len, const Block& b) {
+    // The pointers as locals: the byte stores (touch, loaded) may alias anything in memory,
+    // and gcc would reload each pointer from `c` after every one of them.
     const Results pairs{c.touch, c.overlap, c.force, c.nxft, c.xi};
+    const Index *own = c.own, *par = c.par;
+    std::uint8_t* loaded = c.loaded;
+    double* diss = c.diss;
+    const double dt = c.dt;
     for (int a = 0; a < len; ++a) {
-      const Index q = act[a], i = c.own[q];
-      const double lost = store_lane(pairs, q, b, a, c.dt);
+      const Index q = act[a], i = own[q];
+      const double lost = store_lane(pairs, q, b, a, dt);
       if (b.inside[a]) {
-        mark(c.loaded, i);
-        mark(c.loaded, c.par[q]);
+        mark(loaded, i);
+        mark(loaded, par[q]);
       }
-      if (lost != 0) c.diss[i] += lost;
+      if (lost != 0) diss[i] += lost;
     }
   }
 
