@@ -171,13 +171,19 @@ struct Stepper {
     n = np;
   }
 
-  // v_ij.n (returned in vn) and the tangential velocity of the contact points (1.12), with the
-  // levers c along the line of centres.
-  TSUBU_INLINE static L3 approach(L3 n, L3 vrel, double ci, double cj, L3 wi, L3 wj, double& vn) {
+  // v_ij.n (returned in vn) and the tangential velocity of the contact points (1.12), from the
+  // relative velocity and the spins' part c_i w_i + c_j w_j, levers c along the line of centres.
+  TSUBU_INLINE static L3 contact_velocity(L3 n, L3 vrel, L3 spin, double& vn) {
     vn = dot(vrel, n);
-    if constexpr (kTangential) return vrel - vn * n - cross(ci * wi + cj * wj, n);
-    (void)ci, (void)cj, (void)wi, (void)wj;
+    if constexpr (kTangential) return vrel - vn * n - cross(spin, n);
+    (void)spin;
     return {0, 0, 0};
+  }
+  TSUBU_INLINE static L3 spin_part(double ci, L3 wi, double cj, L3 wj) { return ci * wi + cj * wj; }
+  TSUBU_INLINE static L3 approach(L3 n, L3 vrel, double ci, double cj, L3 wi, L3 wj, double& vn) {
+    if constexpr (kTangential) return contact_velocity(n, vrel, spin_part(ci, wi, cj, wj), vn);
+    (void)ci, (void)cj, (void)wi, (void)wj;
+    return contact_velocity(n, vrel, {0, 0, 0}, vn);
   }
 
   // Everything the contact pass reads and writes, unpacked once per step.
@@ -392,8 +398,12 @@ struct Stepper {
   static constexpr bool kBlocked = !kRolling && !kRough;
   static constexpr int kBlock = 64;
   struct alignas(64) Block {
-    double nx[kBlock], ny[kBlock], nz[kBlock], vtx[kBlock], vty[kBlock], vtz[kBlock];
-    double delta[kBlock], vn[kBlock], eta[kBlock];
+    // Walls: normal, tangential and normal velocity. Pairs: relative velocity and the spins'
+    // part (the rest of the geometry is the scan's), turned into n, v_t and v_n by the
+    // vectorised loop.
+    double nx[kBlock], ny[kBlock], nz[kBlock], vtx[kBlock], vty[kBlock], vtz[kBlock], vn[kBlock];
+    double vrx[kBlock], vry[kBlock], vrz[kBlock], spx[kBlock], spy[kBlock], spz[kBlock];
+    double delta[kBlock], eta[kBlock];
     double kn[kBlock], kt[kBlock], mu[kBlock], td[kBlock];
     double xix[kBlock], xiy[kBlock], xiz[kBlock];
     double fx[kBlock], fy[kBlock], fz[kBlock], tx[kBlock], ty[kBlock], tz[kBlock], power[kBlock];
@@ -423,7 +433,7 @@ struct Stepper {
       gather<true>(c, s, len, b, excess);
     else
       gather<false>(c, s, len, b, excess);
-    const bool bad = evaluate_block(b, len, c.dt);
+    const bool bad = evaluate_block<true>(b, s, len, c.dt);
     store(c, s.act, len, b);
     return bad;
   }
@@ -433,19 +443,18 @@ struct Stepper {
     for (int a = 0; a < len; ++a) {
       const Index q = s.act[a], i = c.own[q], j = c.par[q];
       const double ri = c.r[i], rj = c.r[j];
-      const L3 d{s.dx[a], s.dy[a], s.dz[a]};
       const double dist2 = s.d2[a], inv = s.inv[a];
       const double delta = (ri + rj) - dist2 * inv;
-      const L3 n = inv * d;
       const double ci = ri - 0.5 * delta, cj = rj - 0.5 * delta;
-      double vn;
-      const L3 vt = approach(n, lanes(vec3(c.v, i) - vec3(c.v, j)), ci, cj, lanes(vec3(c.w, i)),
-                             lanes(vec3(c.w, j)), vn);
+      const L3 vrel = lanes(vec3(c.v, i) - vec3(c.v, j));
+      b.vrx[a] = vrel.x, b.vry[a] = vrel.y, b.vrz[a] = vrel.z;
+      if constexpr (kTangential) {
+        const L3 spin = spin_part(ci, lanes(vec3(c.w, i)), cj, lanes(vec3(c.w, j)));
+        b.spx[a] = spin.x, b.spy[a] = spin.y, b.spz[a] = spin.z;
+      }
       b.inside[a] = dist2 < c.cut2[q];  // (1.10); else the contact has just opened
       if (b.inside[a]) excess = std::max(excess, delta - c.limit * std::min(ri, rj));
-      b.nx[a] = n.x, b.ny[a] = n.y, b.nz[a] = n.z;
-      b.vtx[a] = vt.x, b.vty[a] = vt.y, b.vtz[a] = vt.z;
-      b.delta[a] = delta, b.vn[a] = vn, b.eta[a] = c.eta[q];
+      b.delta[a] = delta, b.eta[a] = c.eta[q];
       if constexpr (!kSame) {
         const PairParams& p = (*c.table)(c.mat[i], c.mat[j]);
         b.kn[a] = p.kn, b.kt[a] = p.kt, b.mu[a] = p.friction, b.td[a] = p.tangential_damping;
@@ -457,14 +466,29 @@ struct Stepper {
     }
   }
 
-  // Returns true if a contact's force is not finite.
-  [[gnu::noinline]] static bool evaluate_block(Block& __restrict b, int len, double dt) {
+  // The law over lanes [0, len) of a block of pairs (kPairs: the normal from the scan's x_ij and
+  // 1/|x_ij|, the velocities from the block's) or of walls. Returns true if a contact's force is
+  // not finite.
+  template <bool kPairs>
+  [[gnu::noinline]] static bool evaluate_block(Block& __restrict b, const Scan& __restrict s,
+                                               int len, double dt) {
     int bad = 0;
     for (int a = 0; a < len; ++a) {
+      L3 n, vt;
+      double vn;
+      if constexpr (kPairs) {
+        n = s.inv[a] * L3{s.dx[a], s.dy[a], s.dz[a]};
+        const L3 spin = kTangential ? L3{b.spx[a], b.spy[a], b.spz[a]} : L3{0, 0, 0};
+        vt = contact_velocity(n, {b.vrx[a], b.vry[a], b.vrz[a]}, spin, vn);
+      } else {
+        n = {b.nx[a], b.ny[a], b.nz[a]};
+        vt = {b.vtx[a], b.vty[a], b.vtz[a]};
+        vn = b.vn[a];
+      }
       L3 xi{b.xix[a], b.xiy[a], b.xiz[a]}, f, t{0, 0, 0};
       double power;
-      Law::lane({b.nx[a], b.ny[a], b.nz[a]}, {b.vtx[a], b.vty[a], b.vtz[a]}, b.delta[a], b.vn[a],
-                b.eta[a], {b.kn[a], b.kt[a], b.mu[a], b.td[a]}, dt, xi, f, t, power);
+      Law::lane(n, vt, b.delta[a], vn, b.eta[a], {b.kn[a], b.kt[a], b.mu[a], b.td[a]}, dt, xi, f,
+                t, power);
       b.xix[a] = xi.x, b.xiy[a] = xi.y, b.xiz[a] = xi.z;
       b.fx[a] = f.x, b.fy[a] = f.y, b.fz[a] = f.z;
       b.tx[a] = t.x, b.ty[a] = t.y, b.tz[a] = t.z;
@@ -530,7 +554,8 @@ struct Stepper {
   // Near-wall entries e[0, len) in contact or just released, as wall_entry for each, in order,
   // through the same block as pairs: the law's lanes take a wall as a partner with no radius,
   // no spin and the plane's material. Returns true if a force is not finite.
-  static bool wall_block(const Pass& c, const Index* e, int len, Block& b, double& excess) {
+  static bool wall_block(const Pass& c, const Index* e, int len, Block& b, const Scan& scan,
+                         double& excess) {
     for (int a = 0; a < len; ++a) {
       const Index i = c.wown[e[a]];
       const Plane& P = c.planes[c.wall[e[a]]];
@@ -552,7 +577,7 @@ struct Stepper {
         b.xix[a] = xi[0], b.xiy[a] = xi[1], b.xiz[a] = xi[2];
       }
     }
-    const bool bad = evaluate_block(b, len, c.dt);
+    const bool bad = evaluate_block<false>(b, scan, len, c.dt);
     const Results walls{c.wtouch, c.woverlap, c.wforce, c.wnxft, c.wxi};
     for (int a = 0; a < len; ++a) {
       const Index i = c.wown[e[a]];
@@ -663,7 +688,7 @@ struct Stepper {
         for (Index a0 = 0; a0 < wcount; a0 += kBlock) {
           const int len = int(std::min<Index>(kBlock, wcount - a0));
           for (int a = 0; a < len; ++a) e[a] = c.wnear[wact[wlo + a0 + a]];
-          if (wall_block(c, e, len, block, excess)) bad = 1;
+          if (wall_block(c, e, len, block, scan, excess)) bad = 1;
         }
       } else {
         for (Index a = 0; a < wcount; ++a) {
