@@ -547,7 +547,7 @@ struct Stepper {
         mark(loaded, i);
         mark(loaded, par[q]);
       }
-      if (lost != 0) diss[i] += lost;
+      diss[i] += lost;  // (+0 where nothing was lost)
     }
   }
 
@@ -810,16 +810,20 @@ struct Stepper {
       const Index lo = Index(std::int64_t(n) * t / nt), hi = Index(std::int64_t(n) * (t + 1) / nt);
       Index b = Index(std::lower_bound(busy, busy + nb, lo) - busy);
       Index list[kChunk];
-      // Particle k in contact takes its sums: v += dt F/m, w += dt T/I.
-      auto kick = [&](Index k, const auto& F, const auto& T) {
+      // Particle k in contact takes its sums: v += dt F/m, w += dt T/I. Returns 0, or NaN if
+      // the new spin is not finite. (Captures by value: the byte store to `loaded` may alias
+      // anything in memory, and gcc would reload every captured reference after it.)
+      auto kick = [=](Index k, const auto& F, const auto& T) {
         loaded[k] = 0;
         vec3(v, k) += (dt * inv_m[k]) * F;
         if constexpr (kTorque) {
           const Vec3 wk = vec3(w, k) + (dt * inv_i[k]) * T;
           vec3(w, k) = wk;
-          check += wk.sum() * 0.0;  // NaN or inf stay so
+          return wk.sum() * 0.0;
         }
+        return 0.0;
       };
+      double kicked = 0;
       for (Index c0 = lo; c0 < hi; c0 += kChunk) {
         const Index c1 = std::min(hi, c0 + kChunk);
         // The chunk's particles in contact, listed without branches; then their sums, each
@@ -844,7 +848,7 @@ struct Stepper {
             for (Index a = r0; a < r1; ++a) {
               const double* o = out + 8 * (a - r0);
               if (loaded[busy[a]])
-                kick(busy[a], Eigen::Map<const Vec3>(o), Eigen::Map<const Vec3>(o + 4));
+                kicked += kick(busy[a], Eigen::Map<const Vec3>(o), Eigen::Map<const Vec3>(o + 4));
             }
           }
           count = 0;
@@ -854,13 +858,14 @@ struct Stepper {
           const Index k = list[a];
           Vec3 F = Vec3::Zero(), T = Vec3::Zero();
           sums.template at<kTangential, kTangential || kRough, kRolling>(k, F, T);
-          kick(k, F, T);
+          kicked += kick(k, F, T);
         }
         double part_vmax2 = 0, part_check = 0;
         drift(x, v, c0, c1, dt, gx, gy, gz, part_vmax2, part_check);
         vmax2 = std::max(vmax2, part_vmax2);
         check += part_check;
       }
+      check += kicked;
     }
     const double moved = std::sqrt(vmax2) * dt;
     s.moved_ += moved;
