@@ -768,14 +768,14 @@ struct Stepper {
     const double* moment[4] = {sums.pn, sums.pn, sums.wn, sums.wn};
     const double* overlap[4] = {sums.po, sums.po, sums.wo, sums.wo};
     const double sign[4] = {1.0, -1.0, 1.0, 1.0};
-    Index slot = -1;
+    std::int64_t slot = -1;
     V4 F{0, 0, 0, 0}, T{0, 0, 0, 0};
-    for (Index p = p0; p < p1; ++p) {
-      const std::uint32_t u = entry[p], kind = u & 3u;
+    for (const std::uint32_t *p = entry + p0, *end = entry + p1; p < end; ++p) {
+      const std::uint32_t u = *p, kind = u & 3u;
       const std::size_t e = u >> 3;
       const std::int64_t first = (u >> 2) & 1u;
       const M4 keep = M4{} + (first - 1);  // all ones but at a particle's first entry: from +0
-      slot += Index(first);
+      slot += first;
       F = V4(M4(F) & keep) + sign[kind] * load4(force[kind] + 3 * e);
       std::memcpy(out + 8 * slot, &F, sizeof F);
       if constexpr (kTangential) {  // (1.19): both sides of a pair take -(r - overlap/2) n x F_t
