@@ -411,6 +411,7 @@ struct Stepper {
 
     // One material for all spheres: the parameter lanes are filled once, not per contact.
     explicit Block(const PairParams* same) {
+      std::memset(static_cast<void*>(this), 0, sizeof *this);  // lanes past a block's end: see evaluate_block
       if (!same) return;
       std::fill(kn, kn + kBlock, same->kn);
       std::fill(kt, kt + kBlock, same->kt);
@@ -472,8 +473,14 @@ struct Stepper {
   template <bool kPairs>
   [[gnu::noinline]] static bool evaluate_block(Block& __restrict b, const Scan& __restrict s,
                                                int len, double dt) {
+    // gcc runs 8 lanes per vector iteration (two independent chains of divisions and square
+    // roots, which the core overlaps) and the rest one at a time, each a long serial chain:
+    // the block is run to the next multiple of 8 instead. The extra lanes hold an earlier
+    // block's values (or zeros): their results are not read and do not count as bad.
+    static_assert(kBlock % 8 == 0);
+    const int padded = (len + 7) & ~7;
     int bad = 0;
-    for (int a = 0; a < len; ++a) {
+    for (int a = 0; a < padded; ++a) {
       L3 n, vt;
       double vn;
       if constexpr (kPairs) {
@@ -494,7 +501,7 @@ struct Stepper {
       b.tx[a] = t.x, b.ty[a] = t.y, b.tz[a] = t.z;
       b.power[a] = power;
       const double sum = (f.x + f.y) + f.z;
-      bad |= (sum - sum == 0) ? 0 : 1;  // inf or NaN (a just-opened lane's values stay finite)
+      bad |= (sum - sum == 0 || a >= len) ? 0 : 1;  // inf or NaN (a just-opened lane's stay finite)
     }
     return bad != 0;
   }
@@ -652,7 +659,7 @@ struct Stepper {
       const Index lo = part_start(pair_owner, np, t, nt), hi = part_start(pair_owner, np, t + 1, nt);
       // A chunk of near entries at a time: the particles the scan reads are still in the
       // nearest cache when the contacts among them are evaluated.
-      Scan scan;
+      Scan scan{};
       Block block(c.same);
       for (Index base = lo; base < hi; base += kBlock) {
         const Index count = compact_pairs(c, base, std::min<Index>(hi, base + kBlock), scan);
