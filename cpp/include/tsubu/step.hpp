@@ -410,7 +410,9 @@ struct Stepper {
     bool inside[kBlock];
 
     // One material for all spheres: the parameter lanes are filled once, not per contact.
-    void set_material(const PairParams* same) {
+    explicit Block(const PairParams* same) {
+      // Zeros, so that the lanes past a block's end (evaluate_block) hold finite values.
+      std::memset(static_cast<void*>(this), 0, sizeof *this);
       if (!same) return;
       std::fill(kn, kn + kBlock, same->kn);
       std::fill(kt, kt + kBlock, same->kt);
@@ -475,8 +477,7 @@ struct Stepper {
     // gcc runs 8 lanes per vector iteration (two independent chains of divisions and square
     // roots, which the core overlaps) and the rest one at a time, each a long serial chain:
     // the block is run to the next multiple of 8 instead. The extra lanes hold an earlier
-    // block's values (or zeros, see contact_pass): their results are not read and do not count
-    // as bad.
+    // block's values (or zeros): their results are not read and do not count as bad.
     static_assert(kBlock % 8 == 0);
     const int padded = (len + 7) & ~7;
     int bad = 0;
@@ -659,11 +660,8 @@ struct Stepper {
       const Index lo = part_start(pair_owner, np, t, nt), hi = part_start(pair_owner, np, t + 1, nt);
       // A chunk of near entries at a time: the particles the scan reads are still in the
       // nearest cache when the contacts among them are evaluated.
-      // Per thread, in static storage: zero-initialised once, so that the lanes past a block's
-      // end (evaluate_block) always hold finite values, without clearing 17 KB every step.
-      static thread_local Scan scan;
-      static thread_local Block block;
-      block.set_material(c.same);
+      Scan scan{};
+      Block block(c.same);
       for (Index base = lo; base < hi; base += kBlock) {
         const Index count = compact_pairs(c, base, std::min<Index>(hi, base + kBlock), scan);
         inverse_distances(scan, count);
