@@ -469,15 +469,15 @@ struct Stepper {
   }
 
   // The law over lanes [0, len) of a block of pairs (kPairs: the normal from the scan's x_ij and
-  // 1/|x_ij|, the velocities from the block's) or of walls. Returns true if a contact's force is
-  // not finite.
+  // 1/|x_ij|, the velocities from the block's) or of walls (s unused). Returns true if a
+  // contact's force is not finite.
   template <bool kPairs>
   [[gnu::noinline]] static bool evaluate_block(Block& __restrict b, const Scan& __restrict s,
                                                int len, double dt) {
-    // gcc runs 8 lanes per vector iteration (two independent chains of divisions and square
-    // roots, which the core overlaps) and the rest one at a time, each a long serial chain:
-    // the block is run to the next multiple of 8 instead. The extra lanes hold an earlier
-    // block's values (or zeros): their results are not read and do not count as bad.
+    // With a 32-bit `bad`, gcc runs 8 lanes per vector iteration (two independent chains of
+    // divisions and square roots, which the core overlaps) and the rest one at a time, each a
+    // long serial chain: the block is run to the next multiple of 8 instead. The extra lanes
+    // hold an earlier block's values (or zeros): their results are not read, not counted bad.
     static_assert(kBlock % 8 == 0);
     const int padded = (len + 7) & ~7;
     int bad = 0;
@@ -585,7 +585,7 @@ struct Stepper {
         b.xix[a] = xi[0], b.xiy[a] = xi[1], b.xiz[a] = xi[2];
       }
     }
-    const bool bad = evaluate_block<false>(b, scan, len, c.dt);
+    const bool bad = evaluate_block<false>(b, scan, len, c.dt);  // (the scan is not read)
     const Results walls{c.wtouch, c.woverlap, c.wforce, c.wnxft, c.wxi};
     for (int a = 0; a < len; ++a) {
       const Index i = c.wown[e[a]];
