@@ -28,6 +28,13 @@ void require(bool ok, const std::string& what) {
   if (!ok) throw InvalidArgument(what);
 }
 
+// For checks made once per sphere: the message is only built when the check fails (building it
+// every time took seconds for a million spheres).
+template <class Message>
+void require_lazy(bool ok, Message&& what) {
+  if (!ok) throw InvalidArgument(what());
+}
+
 bool finite3(const double* p) {
   return std::isfinite(p[0]) && std::isfinite(p[1]) && std::isfinite(p[2]);
 }
@@ -70,7 +77,7 @@ int Simulation::add_material(const Material& m) {
 }
 
 const Material& Simulation::material(int index) const {
-  require(index >= 0 && index < material_count(), "no material " + std::to_string(index));
+  require_lazy(index >= 0 && index < material_count(), [&] { return "no material " + std::to_string(index); });
   return materials_[index];
 }
 
@@ -132,15 +139,19 @@ Id Simulation::add_spheres(std::size_t n, const double* positions, const double*
                            const int* materials, const double* velocities,
                            const double* angular_velocities) {
   for (std::size_t k = 0; k < n; ++k) {
-    require(finite3(positions + 3 * k), "position of sphere " + std::to_string(k) + " is not finite");
-    require(radii[k] > 0 && std::isfinite(radii[k]),
-            "radius of sphere " + std::to_string(k) + " must be > 0, got " + fmt(radii[k]));
+    require_lazy(finite3(positions + 3 * k),
+                 [&] { return "position of sphere " + std::to_string(k) + " is not finite"; });
+    require_lazy(radii[k] > 0 && std::isfinite(radii[k]), [&] {
+      return "radius of sphere " + std::to_string(k) + " must be > 0, got " + fmt(radii[k]);
+    });
     material(materials[k]);
     if (velocities)
-      require(finite3(velocities + 3 * k), "velocity of sphere " + std::to_string(k) + " is not finite");
+      require_lazy(finite3(velocities + 3 * k),
+                   [&] { return "velocity of sphere " + std::to_string(k) + " is not finite"; });
     if (angular_velocities)
-      require(finite3(angular_velocities + 3 * k),
-              "angular velocity of sphere " + std::to_string(k) + " is not finite");
+      require_lazy(finite3(angular_velocities + 3 * k), [&] {
+        return "angular velocity of sphere " + std::to_string(k) + " is not finite";
+      });
   }
   const Id first = static_cast<Id>(n_);
   // A large batch gets exact capacity (doubling would keep up to 2x the memory per particle);
@@ -556,7 +567,8 @@ void Simulation::gather_by_id(const double* src, double* out) const {
 void Simulation::scatter_by_id(const double* in, double* dst) {
   for (std::size_t k = 0; k < n_; ++k) {
     const Id id = id_[k];
-    require(finite3(in + 3 * id), "value for sphere " + std::to_string(id) + " is not finite");
+    require_lazy(finite3(in + 3 * id),
+                 [&] { return "value for sphere " + std::to_string(id) + " is not finite"; });
   }
   for (std::size_t k = 0; k < n_; ++k) {
     const Id id = id_[k];
