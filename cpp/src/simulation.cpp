@@ -5,6 +5,7 @@
 #include <cmath>
 #include <limits>
 #include <sstream>
+#include <type_traits>
 
 #include "tsubu/contact/normal.hpp"
 #include "tsubu/registry.hpp"
@@ -24,15 +25,16 @@ std::string fmt(double x) {
   return o.str();
 }
 
-void require(bool ok, const std::string& what) {
-  if (!ok) throw InvalidArgument(what);
-}
-
-// For checks made once per sphere: the message is only built when the check fails (building it
-// every time took seconds for a million spheres).
+// `what` is the message, or a function that builds it: checks made once per sphere pass a
+// function, so that the message is only built when the check fails (building it every time took
+// seconds for a million spheres).
 template <class Message>
-void require_lazy(bool ok, Message&& what) {
-  if (!ok) throw InvalidArgument(what());
+void require(bool ok, Message&& what) {
+  if (ok) return;
+  if constexpr (std::is_invocable_v<Message>)
+    throw InvalidArgument(what());
+  else
+    throw InvalidArgument(what);
 }
 
 bool finite3(const double* p) {
@@ -77,7 +79,8 @@ int Simulation::add_material(const Material& m) {
 }
 
 const Material& Simulation::material(int index) const {
-  require_lazy(index >= 0 && index < material_count(), [&] { return "no material " + std::to_string(index); });
+  require(index >= 0 && index < material_count(),
+          [&] { return "no material " + std::to_string(index); });
   return materials_[index];
 }
 
@@ -139,17 +142,17 @@ Id Simulation::add_spheres(std::size_t n, const double* positions, const double*
                            const int* materials, const double* velocities,
                            const double* angular_velocities) {
   for (std::size_t k = 0; k < n; ++k) {
-    require_lazy(finite3(positions + 3 * k),
-                 [&] { return "position of sphere " + std::to_string(k) + " is not finite"; });
-    require_lazy(radii[k] > 0 && std::isfinite(radii[k]), [&] {
+    require(finite3(positions + 3 * k),
+            [&] { return "position of sphere " + std::to_string(k) + " is not finite"; });
+    require(radii[k] > 0 && std::isfinite(radii[k]), [&] {
       return "radius of sphere " + std::to_string(k) + " must be > 0, got " + fmt(radii[k]);
     });
     material(materials[k]);
     if (velocities)
-      require_lazy(finite3(velocities + 3 * k),
-                   [&] { return "velocity of sphere " + std::to_string(k) + " is not finite"; });
+      require(finite3(velocities + 3 * k),
+              [&] { return "velocity of sphere " + std::to_string(k) + " is not finite"; });
     if (angular_velocities)
-      require_lazy(finite3(angular_velocities + 3 * k), [&] {
+      require(finite3(angular_velocities + 3 * k), [&] {
         return "angular velocity of sphere " + std::to_string(k) + " is not finite";
       });
   }
@@ -567,8 +570,8 @@ void Simulation::gather_by_id(const double* src, double* out) const {
 void Simulation::scatter_by_id(const double* in, double* dst) {
   for (std::size_t k = 0; k < n_; ++k) {
     const Id id = id_[k];
-    require_lazy(finite3(in + 3 * id),
-                 [&] { return "value for sphere " + std::to_string(id) + " is not finite"; });
+    require(finite3(in + 3 * id),
+            [&] { return "value for sphere " + std::to_string(id) + " is not finite"; });
   }
   for (std::size_t k = 0; k < n_; ++k) {
     const Id id = id_[k];

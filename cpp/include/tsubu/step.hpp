@@ -674,7 +674,8 @@ struct Stepper {
       Scan scan{};
       Block block(c.same);
       for (Index base = lo; base < hi; base += kBlock) {
-        if (far) prefetch_partners(c, std::min(hi, base + 2 * kBlock), std::min(hi, base + 3 * kBlock));
+        if (far)
+          prefetch_partners(c, std::min(hi, base + 2 * kBlock), std::min(hi, base + 3 * kBlock));
         const Index count = compact_pairs(c, base, std::min<Index>(hi, base + kBlock), scan);
         inverse_distances(scan, count);
         if constexpr (kBlocked) {
