@@ -336,5 +336,6 @@ PYBIND11_MODULE(_core, m) {
              return d;
            })
       .def_property_readonly("near_refresh_count", &tsubu::Simulation::near_refresh_count)
+      .def_property_readonly("fused_step_count", &tsubu::Simulation::fused_step_count)
       .def("skin", &tsubu::Simulation::skin);
 }

@@ -401,6 +401,7 @@ void Simulation::refresh_near(bool transfer, bool reordered) {
         near_rev_offset_[i + 1] > near_rev_offset_[i])
       busy_.push_back(static_cast<Index>(i));
   build_sum_entries();
+  measure_near();
   fit(active_, wall_near_.size());  // the walls in contact (step.hpp)
   cache_near_terms();
   moved_near_ = 0;
@@ -435,6 +436,21 @@ void Simulation::build_sum_entries() {
     for (Index p = near_rev_offset_[k]; p < near_rev_offset_[k + 1]; ++p) put(near_rev_[p], 1);
     sum_entry_[sum_offset_[b]] |= 4u;  // a busy particle has at least one entry
   }
+}
+
+void Simulation::measure_near() {
+  Index below = 0, above = 0, most = 0;
+  for (std::size_t q = 0; q < near_partner_.size(); ++q) {
+    below = std::max(below, near_owner_[q] - near_partner_[q]);
+    above = std::max(above, near_partner_[q] - near_owner_[q]);
+  }
+  for (const Index k : busy_)
+    most = std::max(most, (wall_near_offset_[k + 1] - wall_near_offset_[k]) +
+                              (near_offset_[k + 1] - near_offset_[k]) +
+                              (near_rev_offset_[k + 1] - near_rev_offset_[k]));
+  near_reach_below_ = below;
+  near_reach_above_ = above;
+  max_entries_ = most;
 }
 
 void Simulation::size_entry_buffers() {

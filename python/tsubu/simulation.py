@@ -486,6 +486,15 @@ class Simulation:
         reads; docs/architecture.md) so far, rebuilds included."""
         return self._core.near_refresh_count
 
+    @property
+    def fused_step_count(self) -> int:
+        """Steps so far whose particle pass also evaluated the next step's contacts, in one
+        sweep over memory (scenes of 65,536 spheres or more with fixed walls, whenever no
+        neighbour list can fall due in between; docs/architecture.md). The results are the
+        same bits as two passes; the time of such a step counts under ``integrate`` in
+        :meth:`phase_seconds`."""
+        return self._core.fused_step_count
+
     def memory_bytes(self) -> dict:
         """Bytes held by the engine's arrays, by group (``particles``, ``verlet list``,
         ``near list`` with the contact state, ``walls``, ``scratch`` kept for the next rebuild).

@@ -184,6 +184,8 @@ class Simulation {
   std::vector<std::array<Id, 2>> neighbor_pairs() const;
   long rebuild_count() const { return rebuilds_; }
   long near_refresh_count() const { return refreshes_; }
+  // Steps whose particle pass also evaluated the next step's contacts (step.hpp, fused_pass).
+  long fused_step_count() const { return fused_steps_; }
   // Bytes held by the engine's arrays (their capacity), by group: particles, verlet list, near
   // list (with the contact state), walls, scratch (kept for the next rebuild).
   std::vector<std::pair<std::string, std::size_t>> memory_bytes() const;
@@ -256,6 +258,9 @@ class Simulation {
   // sum_offset_[b] is busy particle b's first. Empty if an entry index does not fit.
   Array<std::uint32_t> sum_entry_;
   Array<Index> sum_offset_;
+  // For the fused pass (step.hpp): how far down and up the particle array a near pair's partner
+  // lies from its owner (index distances, at most), and the most entries one particle sums.
+  Index near_reach_below_ = 0, near_reach_above_ = 0, max_entries_ = 0;
   // Near-wall list: (particle, wall) entries within r + skin, by particle; they hold the wall
   // contact state. The step loop reads the subset within r + skin/10 (all of them if a wall
   // moves), refreshed with the near list: wall_near_ (entry indices, by particle).
@@ -276,7 +281,7 @@ class Simulation {
   double moved_ = 0, moved_near_ = 0;
   std::vector<Vec3> plane_point_ref_, plane_normal_ref_;
   double plane_reach_ = 0;           // max distance from a plane's point to the particles
-  long rebuilds_ = 0, refreshes_ = 0;
+  long rebuilds_ = 0, refreshes_ = 0, fused_steps_ = 0;
   std::array<double, int(Phase::Count)> phase_seconds_{};
   // Scratch reused by rebuilds and steps (no allocation once warm).
   Array<Index> cell_start_, cell_of_, perm_, old_index_of_, active_;
@@ -323,6 +328,8 @@ class Simulation {
   void refresh_near(bool transfer, bool reordered);
   // sum_entry_ and sum_offset_ from the near list, the reverse index and the near-wall list.
   void build_sum_entries();
+  // near_reach_below_, near_reach_above_ and max_entries_ from the near lists.
+  void measure_near();
   // near_eta_ from the current pair table (after a refresh, or when parameters change).
   void cache_near_terms();
   // The energy a contact loses when it opens (its tangential spring; step.hpp releases).

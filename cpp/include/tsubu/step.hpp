@@ -7,11 +7,14 @@
 // each entry's result is stored with it. The particle pass then sums every particle's entries in
 // an order fixed by ids (ContactSums) and advances v^{n+1} = v^n + dt F/m, w^{n+1} = w^n + dt T/I,
 // x^{n+1} = x^n + dt v^{n+1}. No per-particle force arrays are streamed, and results are
-// bit-identical for any thread count and any rebuild schedule.
+// bit-identical for any thread count and any rebuild schedule. In large scenes, whose arrays do
+// not stay in cache from one pass to the next, a step's particle pass and the next step's
+// contact pass are one sweep (fused_pass) whenever no neighbour list can fall due in between.
 #pragma once
 #include <algorithm>
 #include <cmath>
 #include <cstring>
+#include <stdexcept>
 #ifdef _OPENMP
 #include <omp.h>
 #endif
@@ -48,20 +51,37 @@ struct Stepper {
       s.energy_ref_gravity_ = s.opt_.gravity;
       s.energy_ref_step_ = s.step_;
     }
+    // Large scenes with fixed walls fuse a step's particle pass with the next step's contact
+    // pass (fused_pass) whenever no neighbour list can be due in between; the first and the
+    // last step of a run, and those that end on an energy check, run as two passes.
+    const bool fuse = fuses(s) && steps > 2;
+    const double min_mass =
+        fuse ? *std::min_element(s.mass_.data(), s.mass_.data() + s.n_) : 0.0;
+    double vmax2 = -1;  // max |v|^2 after the last step; < 0: not known yet
+    bool ready = false;  // this step's contacts were evaluated by the last step's fused pass
+    Found found;
     for (long k = 0; k < steps; ++k) {
-      if (s.needs_rebuild()) {
-        s.rebuild(true);
-      } else if (s.needs_refresh()) {
-        s.stash_near();
-        s.refresh_near(true, false);
+      if (!ready) {
+        if (s.needs_rebuild()) {
+          s.rebuild(true);
+        } else if (s.needs_refresh()) {
+          s.stash_near();
+          s.refresh_near(true, false);
+        }
+        clock.lap(Phase::Neighbors);
+        found = contact_pass(s, dt);
+        clock.lap(Phase::Contacts);
+      } else if (s.needs_rebuild() || s.needs_refresh()) {
+        throw std::logic_error("tsubu: a fused step moved particles further than its bound");
       }
-      clock.lap(Phase::Neighbors);
-      double excess = 0;  // the largest overlap beyond max_overlap x the smaller radius
-      const bool bad = contact_pass(s, dt, excess);
-      clock.lap(Phase::Contacts);
-      if (excess > 0) s.report_overlap(dt);
-      if (bad) s.report_nonfinite();
-      if (particle_pass(s, dt)) s.report_nonfinite_velocity();
+      if (found.excess > 0) s.report_overlap(dt);
+      if (found.bad) s.report_nonfinite();
+      ready = fuse && k > 0 && k + 1 < steps && (s.step_ + 1) % Simulation::kEnergyCheck != 0 &&
+              fusable(s, dt, vmax2, found, min_mass);
+      s.fused_steps_ += ready ? 1 : 0;
+      const bool nonfinite =
+          ready ? fused_pass(s, dt, vmax2, found) : particle_pass(s, dt, vmax2);
+      if (nonfinite) s.report_nonfinite_velocity();
       if constexpr (MovingWalls) s.move_planes(dt);
       ++s.step_;
       s.time_ += dt;
@@ -205,7 +225,8 @@ struct Stepper {
     std::uint64_t step, seed;
     double dt;
 
-    explicit Pass(Simulation& s, double dt_)
+    // `ahead`: 1 where the pass evaluates the next step's contacts (fused_pass).
+    Pass(Simulation& s, double dt_, long ahead = 0)
         : x(s.x_.data()), v(s.v_.data()), w(s.w_.data()), r(s.radius_.data()),
           m(s.mass_.data()), inv_i(s.inv_inertia_.data()), mat(s.material_.data()),
           ids(s.id_.data()), own(s.near_owner_.data()), par(s.near_partner_.data()),
@@ -219,7 +240,7 @@ struct Stepper {
           touch(s.pair_touch_.data()), wtouch(s.wall_touch_.data()),
           diss(s.dissipated_.data()), loaded(s.loaded_.data()), planes(s.planes_.data()), table(&s.pairs_),
           same(s.sphere_material_ >= 0 ? &s.pairs_(s.sphere_material_, s.sphere_material_) : nullptr),
-          step(std::uint64_t(s.step_)), seed(s.opt_.seed), dt(dt_) {}
+          step(std::uint64_t(s.step_ + ahead)), seed(s.opt_.seed), dt(dt_) {}
   };
 
   // Ends a pair contact: its results go to zero and its spring energy is booked as lost.
@@ -430,12 +451,13 @@ struct Stepper {
 
   // Entries s.act[0, len), len <= kBlock, as pair_entry for each, in order. Returns true if a
   // force is not finite.
-  static bool pair_block(const Pass& c, const Scan& s, int len, Block& b, double& excess) {
+  TSUBU_INLINE static bool pair_block(const Pass& c, const Scan& s, int len, Block& b, double& excess,
+                         double& fmax) {
     if (c.same)
       gather<true>(c, s, len, b, excess);
     else
       gather<false>(c, s, len, b, excess);
-    const bool bad = evaluate_block<true>(b, s, len, c.dt);
+    const bool bad = evaluate_block<true>(b, s, len, c.dt, fmax);
     store(c, s.act, len, b);
     return bad;
   }
@@ -473,7 +495,7 @@ struct Stepper {
   // contact's force is not finite.
   template <bool kPairs>
   [[gnu::noinline]] static bool evaluate_block(Block& __restrict b, const Scan& __restrict s,
-                                               int len, double dt) {
+                                               int len, double dt, double& fmax) {
     // With a 32-bit `bad`, gcc runs 8 lanes per vector iteration (two independent chains of
     // divisions and square roots, which the core overlaps) and the rest one at a time, each a
     // long serial chain: the block is run to the next multiple of 8 instead. The extra lanes
@@ -481,6 +503,8 @@ struct Stepper {
     static_assert(kBlock % 8 == 0);
     const int padded = (len + 7) & ~7;
     int bad = 0;
+    std::uint64_t top;  // the largest |fx| + |fy| + |fz| (>= |F|), as bits: gcc vectorises that
+    std::memcpy(&top, &fmax, sizeof top);
     for (int a = 0; a < padded; ++a) {
       L3 n, vt;
       double vn;
@@ -503,7 +527,12 @@ struct Stepper {
       b.power[a] = power;
       const double sum = (f.x + f.y) + f.z;
       bad |= (sum - sum == 0 || a >= len) ? 0 : 1;  // inf or NaN (a just-opened lane's stay finite)
+      const double size = (std::abs(f.x) + std::abs(f.y)) + std::abs(f.z);
+      std::uint64_t bits;
+      std::memcpy(&bits, &size, sizeof bits);
+      top = top > bits ? top : bits;  // (the padding lanes' earlier forces too: a bound)
     }
+    std::memcpy(&fmax, &top, sizeof top);
     return bad != 0;
   }
 
@@ -563,7 +592,7 @@ struct Stepper {
   // through the same block as pairs: the law's lanes take a wall as a partner with no radius,
   // no spin and the plane's material. Returns true if a force is not finite.
   static bool wall_block(const Pass& c, const Index* e, int len, Block& b, const Scan& scan,
-                         double& excess) {
+                         double& excess, double& fmax) {
     for (int a = 0; a < len; ++a) {
       const Index i = c.wown[e[a]];
       const Plane& P = c.planes[c.wall[e[a]]];
@@ -585,7 +614,7 @@ struct Stepper {
         b.xix[a] = xi[0], b.xiy[a] = xi[1], b.xiz[a] = xi[2];
       }
     }
-    const bool bad = evaluate_block<false>(b, scan, len, c.dt);  // (the scan is not read)
+    const bool bad = evaluate_block<false>(b, scan, len, c.dt, fmax);  // (the scan is not read)
     const Results walls{c.wtouch, c.woverlap, c.wforce, c.wnxft, c.wxi};
     for (int a = 0; a < len; ++a) {
       const Index i = c.wown[e[a]];
@@ -649,18 +678,89 @@ struct Stepper {
   // Flags particle k as having a contact this step (threads may flag the same one).
   static void mark(std::uint8_t* loaded, Index k) { __atomic_store_n(loaded + k, 1, __ATOMIC_RELAXED); }
 
+  // What evaluating contacts found, for one thread or reduced over all: the largest overlap
+  // beyond max_overlap x the smaller radius, whether a result is not finite, and the largest
+  // |fx| + |fy| + |fz| of a contact force (for fusable()).
+  struct Found {
+    double excess = 0, fmax = 0;
+    int bad = 0;
+  };
+
+  // Near-pair entries [lo, hi), whole owners, a chunk of kBlock at a time: the particles the scan
+  // reads are still in the nearest cache when the contacts among them are evaluated. `far`: the
+  // partners' positions are requested two chunks ahead.
+  [[gnu::noinline]] static void pair_range(const Pass& c, Index lo, Index hi, bool far, Scan& scan,
+                                           Block& block, Found& found) {
+    Found f = found;  // a local: gcc keeps it in registers through the stores to the block
+    for (Index base = lo; base < hi; base += kBlock) {
+      if (far) prefetch_partners(c, std::min(hi, base + 2 * kBlock), std::min(hi, base + 3 * kBlock));
+      const Index count = compact_pairs(c, base, std::min<Index>(hi, base + kBlock), scan);
+      inverse_distances(scan, count);
+      if constexpr (kBlocked) {
+        if (pair_block(c, scan, int(count), block, f.excess, f.fmax)) f.bad = 1;
+      } else {
+        for (Index a = 0; a < count; ++a) {
+          const Index q = scan.act[a];
+          const double lost = pair_entry(c, q, scan.inv[a], f.excess);
+          if (lost != 0) c.diss[c.own[q]] += lost;
+          if (c.touch[q]) {
+            mark(c.loaded, c.own[q]);
+            mark(c.loaded, c.par[q]);
+          }
+          note_force(vec3(c.force, q), f);
+        }
+      }
+    }
+    found = f;
+  }
+
+  static void note_force(const Eigen::Map<Vec3>& force, Found& f) {
+    const double sum = force.sum();
+    if (!(sum - sum == 0)) f.bad = 1;  // inf or NaN (Eigen's allFinite() is not inlined)
+    f.fmax = std::max(f.fmax, force.cwiseAbs().sum());
+  }
+
+  // Part t of nt of the near-wall entries in contact or just released; after every pair, so that
+  // an owner's dissipation sum keeps one order.
+  static void wall_part(const Pass& c, Index* wact, Index nw, int t, int nt, Scan& scan,
+                        Block& block, Found& f) {
+    auto wall_owner = [&](Index p) { return c.wown[c.wnear[p]]; };
+    const Index wlo = part_start(wall_owner, nw, t, nt), whi = part_start(wall_owner, nw, t + 1, nt);
+    const Index wcount = compact(wlo, whi, wact + wlo, [&](Index p) {
+      const Index e = c.wnear[p];
+      const Plane& P = c.planes[c.wall[e]];
+      const double gap = P.normal.dot(vec3(c.x, c.wown[e]) - P.point) - c.r[c.wown[e]];
+      return (gap < 0) | (c.wtouch[e] != 0);
+    });
+    if constexpr (kBlocked) {
+      Index e[kBlock];
+      for (Index a0 = 0; a0 < wcount; a0 += kBlock) {
+        const int len = int(std::min<Index>(kBlock, wcount - a0));
+        for (int a = 0; a < len; ++a) e[a] = c.wnear[wact[wlo + a0 + a]];
+        if (wall_block(c, e, len, block, scan, f.excess, f.fmax)) f.bad = 1;
+      }
+    } else {
+      for (Index a = 0; a < wcount; ++a) {
+        const Index e = c.wnear[wact[wlo + a]];
+        const double lost = wall_entry(c, e, f.excess);
+        if (lost != 0) c.diss[c.wown[e]] += lost;
+        if (c.wtouch[e]) mark(c.loaded, c.wown[e]);
+        note_force(vec3(c.wforce, e), f);
+      }
+    }
+  }
+
   // Pass 1: every near pair and near-wall entry in contact, or that was in contact last step,
   // is evaluated (or ended) and its result stored with it; each owner books the energy its
-  // entries lost. Returns true if some contact result is not finite.
-  static bool contact_pass(Simulation& s, double dt, double& excess_out) {
+  // entries lost.
+  static Found contact_pass(Simulation& s, double dt) {
     const Pass c(s, dt);
     const Index np = Index(s.near_partner_.size()), nw = Index(s.wall_near_.size());
-    Index* wact = s.active_.data();
     const int threads = static_cast<int>(s.n_) >= s.opt_.parallel_min ? s.threads() : 1;
     const bool far = s.n_ >= kFar;
-    double excess = 0;
+    double excess = 0, fmax = 0;
     int bad = 0;
-#pragma omp parallel num_threads(threads) reduction(max : excess, bad)
+#pragma omp parallel num_threads(threads) reduction(max : excess, fmax, bad)
     {
 #ifdef _OPENMP
       const int t = omp_get_thread_num(), nt = omp_get_num_threads();
@@ -668,62 +768,16 @@ struct Stepper {
       const int t = 0, nt = 1;
 #endif
       auto pair_owner = [&](Index q) { return c.own[q]; };
-      const Index lo = part_start(pair_owner, np, t, nt), hi = part_start(pair_owner, np, t + 1, nt);
-      // A chunk of near entries at a time: the particles the scan reads are still in the
-      // nearest cache when the contacts among them are evaluated.
       Scan scan{};
       Block block(c.same);
-      for (Index base = lo; base < hi; base += kBlock) {
-        if (far)
-          prefetch_partners(c, std::min(hi, base + 2 * kBlock), std::min(hi, base + 3 * kBlock));
-        const Index count = compact_pairs(c, base, std::min<Index>(hi, base + kBlock), scan);
-        inverse_distances(scan, count);
-        if constexpr (kBlocked) {
-          if (pair_block(c, scan, int(count), block, excess)) bad = 1;
-        } else {
-          for (Index a = 0; a < count; ++a) {
-            const Index q = scan.act[a];
-            const double lost = pair_entry(c, q, scan.inv[a], excess);
-            if (lost != 0) c.diss[c.own[q]] += lost;
-            if (c.touch[q]) {
-              mark(c.loaded, c.own[q]);
-              mark(c.loaded, c.par[q]);
-            }
-            const double sum = vec3(c.force, q).sum();
-            if (!(sum - sum == 0)) bad = 1;  // inf or NaN (Eigen's allFinite() is not inlined)
-          }
-        }
-      }
+      Found f;
+      pair_range(c, part_start(pair_owner, np, t, nt), part_start(pair_owner, np, t + 1, nt), far,
+                 scan, block, f);
 #pragma omp barrier
-      // Walls after pairs, all threads: an owner's dissipation sum keeps one order.
-      auto wall_owner = [&](Index p) { return c.wown[c.wnear[p]]; };
-      const Index wlo = part_start(wall_owner, nw, t, nt), whi = part_start(wall_owner, nw, t + 1, nt);
-      const Index wcount = compact(wlo, whi, wact + wlo, [&](Index p) {
-        const Index e = c.wnear[p];
-        const Plane& P = c.planes[c.wall[e]];
-        const double gap = P.normal.dot(vec3(c.x, c.wown[e]) - P.point) - c.r[c.wown[e]];
-        return (gap < 0) | (c.wtouch[e] != 0);
-      });
-      if constexpr (kBlocked) {
-        Index e[kBlock];
-        for (Index a0 = 0; a0 < wcount; a0 += kBlock) {
-          const int len = int(std::min<Index>(kBlock, wcount - a0));
-          for (int a = 0; a < len; ++a) e[a] = c.wnear[wact[wlo + a0 + a]];
-          if (wall_block(c, e, len, block, scan, excess)) bad = 1;
-        }
-      } else {
-        for (Index a = 0; a < wcount; ++a) {
-          const Index e = c.wnear[wact[wlo + a]];
-          const double lost = wall_entry(c, e, excess);
-          if (lost != 0) c.diss[c.wown[e]] += lost;
-          if (c.wtouch[e]) mark(c.loaded, c.wown[e]);
-          const double sum = vec3(c.wforce, e).sum();
-          if (!(sum - sum == 0)) bad = 1;
-        }
-      }
+      wall_part(c, s.active_.data(), nw, t, nt, scan, block, f);
+      excess = f.excess, fmax = f.fmax, bad = f.bad;
     }
-    excess_out = excess;
-    return bad != 0;
+    return {excess, fmax, bad};
   }
 
   // v += dt g, x += dt v over particles [lo, hi); returns max |v|^2 and a sum that is not
@@ -807,33 +861,43 @@ struct Stepper {
     }
   }
 
-  static bool particle_pass(Simulation& s, double dt) {
-    const Index n = static_cast<Index>(s.n_), nb = static_cast<Index>(s.busy_.size());
-    double *x = s.x_.data(), *v = s.v_.data(), *w = s.w_.data();
-    const double *inv_m = s.inv_mass_.data(), *inv_i = s.inv_inertia_.data();
-    const Index* busy = s.busy_.data();
-    std::uint8_t* loaded = s.loaded_.data();
-    const ContactSums sums(s);
-    const std::uint32_t* sum_entry = s.sum_entry_.data();
-    const Index* sum_offset = s.sum_offset_.data();
-    const bool flat = s.sum_offset_.size() == std::size_t(nb) + 1;
-    const double gx = dt * s.opt_.gravity.x(), gy = dt * s.opt_.gravity.y(),
-                 gz = dt * s.opt_.gravity.z();
-    const int threads = n >= s.opt_.parallel_min ? s.threads() : 1;
-    double vmax2 = 0, check = 0;
-#pragma omp parallel num_threads(threads) reduction(max : vmax2) reduction(+ : check)
-    {
-#ifdef _OPENMP
-      const int t = omp_get_thread_num(), nt = omp_get_num_threads();
-#else
-      const int t = 0, nt = 1;
-#endif
-      const Index lo = Index(std::int64_t(n) * t / nt), hi = Index(std::int64_t(n) * (t + 1) / nt);
-      Index b = Index(std::lower_bound(busy, busy + nb, lo) - busy);
-      Index list[kChunk];
+  // The particle pass's view of the scene, unpacked once per pass.
+  struct Mover {
+    double *x, *v, *w;
+    const double *inv_m, *inv_i, *radius;
+    const Index* busy;
+    Index nb;
+    std::uint8_t* loaded;
+    ContactSums sums;
+    const std::uint32_t* sum_entry;
+    const Index* sum_offset;
+    bool flat;
+    double dt, gx, gy, gz;
+
+    Mover(Simulation& s, double dt_)
+        : x(s.x_.data()), v(s.v_.data()), w(s.w_.data()), inv_m(s.inv_mass_.data()),
+          inv_i(s.inv_inertia_.data()), radius(s.radius_.data()), busy(s.busy_.data()),
+          nb(Index(s.busy_.size())), loaded(s.loaded_.data()), sums(s),
+          sum_entry(s.sum_entry_.data()), sum_offset(s.sum_offset_.data()),
+          flat(s.sum_offset_.size() == std::size_t(nb) + 1), dt(dt_),
+          gx(dt_ * s.opt_.gravity.x()), gy(dt_ * s.opt_.gravity.y()), gz(dt_ * s.opt_.gravity.z()) {}
+
+    // The first busy particle at or after particle k.
+    Index first_busy(Index k) const { return Index(std::lower_bound(busy, busy + nb, k) - busy); }
+
+    // Particles [c0, c1) (at most kChunk), whose busy ones start at busy[b] (b is moved past
+    // them): kicks and drift. Raises vmax2 to max |v|^2; adds to `check` 0, or NaN if a new
+    // velocity is not finite.
+    void chunk(Index c0, Index c1, Index& b, double& vmax2, double& check) const {
+      // Locals, and a lambda that captures them by value: the byte store to `loaded` may alias
+      // anything in memory, and gcc would reload every member or captured reference after it.
+      double *const v = this->v, *const w = this->w;
+      const double *const inv_m = this->inv_m, *const inv_i = this->inv_i;
+      std::uint8_t* const loaded = this->loaded;
+      const Index* const busy = this->busy;
+      const double dt = this->dt;
       // Particle k in contact takes its sums: v += dt F/m, w += dt T/I. Returns 0, or NaN if
-      // the new spin is not finite. (Captures by value: the byte store to `loaded` may alias
-      // anything in memory, and gcc would reload every captured reference after it.)
+      // the new spin is not finite.
       auto kick = [=](Index k, const auto& F, const auto& T) {
         loaded[k] = 0;
         vec3(v, k) += (dt * inv_m[k]) * F;
@@ -845,53 +909,147 @@ struct Stepper {
         return 0.0;
       };
       double kicked = 0;
-      for (Index c0 = lo; c0 < hi; c0 += kChunk) {
-        const Index c1 = std::min(hi, c0 + kChunk);
-        // The chunk's particles in contact, listed without branches; then their sums, each
-        // prefetching the offsets and velocities of the particle kAhead places further down the
-        // list (at N = 1e6 the particles in contact are a few per cent, scattered, and each read
-        // would otherwise wait on memory).
-        Index count = 0;
-        const Index b0 = b;
-        for (; b < nb && busy[b] < c1; ++b) {
-          const Index k = busy[b];
-          list[count] = k;
-          count += loaded[k] ? 1 : 0;
-        }
-        // Where most busy particles are in contact (dense packs), all of them are summed from
-        // the flat entry list, and those in contact take their sums.
-        if (kFlatSums && flat && 2 * count >= b - b0) {
-          for (Index r0 = b0; r0 < b; r0 += kFlatRun) {
-            const Index r1 = std::min(b, r0 + kFlatRun);
-            double rads[kFlatRun], out[8 * kFlatRun];
-            for (Index a = r0; a < r1; ++a) rads[a - r0] = s.radius_[busy[a]];
-            flat_sums(sum_entry, sum_offset[r0], sum_offset[r1], sums, rads, out);
-            for (Index a = r0; a < r1; ++a) {
-              const double* o = out + 8 * (a - r0);
-              if (loaded[busy[a]])
-                kicked += kick(busy[a], Eigen::Map<const Vec3>(o), Eigen::Map<const Vec3>(o + 4));
-            }
-          }
-          count = 0;
-        }
-        for (Index a = 0; a < count; ++a) {
-          if (a + kAhead < count) sums.prefetch(list[a + kAhead], v, w);
-          const Index k = list[a];
-          Vec3 F = Vec3::Zero(), T = Vec3::Zero();
-          sums.template at<kTangential, kTangential || kRough, kRolling>(k, F, T);
-          kicked += kick(k, F, T);
-        }
-        double part_vmax2 = 0, part_check = 0;
-        drift(x, v, c0, c1, dt, gx, gy, gz, part_vmax2, part_check);
-        vmax2 = std::max(vmax2, part_vmax2);
-        check += part_check;
+      // The chunk's particles in contact, listed without branches; then their sums, each
+      // prefetching the offsets and velocities of the particle kAhead places further down the
+      // list (at N = 1e6 the particles in contact are a few per cent, scattered, and each read
+      // would otherwise wait on memory).
+      Index list[kChunk];
+      Index count = 0;
+      const Index b0 = b;
+      for (; b < nb && busy[b] < c1; ++b) {
+        const Index k = busy[b];
+        list[count] = k;
+        count += loaded[k] ? 1 : 0;
       }
-      check += kicked;
+      // Where most busy particles are in contact (dense packs), all of them are summed from
+      // the flat entry list, and those in contact take their sums.
+      if (kFlatSums && flat && 2 * count >= b - b0) {
+        for (Index r0 = b0; r0 < b; r0 += kFlatRun) {
+          const Index r1 = std::min(b, r0 + kFlatRun);
+          double rads[kFlatRun], out[8 * kFlatRun];
+          for (Index a = r0; a < r1; ++a) rads[a - r0] = radius[busy[a]];
+          flat_sums(sum_entry, sum_offset[r0], sum_offset[r1], sums, rads, out);
+          for (Index a = r0; a < r1; ++a) {
+            const double* o = out + 8 * (a - r0);
+            if (loaded[busy[a]])
+              kicked += kick(busy[a], Eigen::Map<const Vec3>(o), Eigen::Map<const Vec3>(o + 4));
+          }
+        }
+        count = 0;
+      }
+      for (Index a = 0; a < count; ++a) {
+        if (a + kAhead < count) sums.prefetch(list[a + kAhead], v, w);
+        const Index k = list[a];
+        Vec3 F = Vec3::Zero(), T = Vec3::Zero();
+        sums.template at<kTangential, kTangential || kRough, kRolling>(k, F, T);
+        kicked += kick(k, F, T);
+      }
+      double part_vmax2 = 0, part_check = 0;
+      drift(x, v, c0, c1, dt, gx, gy, gz, part_vmax2, part_check);
+      vmax2 = std::max(vmax2, part_vmax2);
+      check += part_check + kicked;
     }
+  };
+
+  // Adds the distance any particle moved this step, dt max|v|, to the neighbour lists' bounds.
+  static void book_moved(Simulation& s, double dt, double vmax2) {
     const double moved = std::sqrt(vmax2) * dt;
     s.moved_ += moved;
     s.moved_near_ += moved;
+  }
+
+  // Returns true if a new velocity is not finite; sets vmax2 to max |v|^2.
+  static bool particle_pass(Simulation& s, double dt, double& vmax2_out) {
+    const Mover mv(s, dt);
+    const Index n = static_cast<Index>(s.n_);
+    const int threads = n >= s.opt_.parallel_min ? s.threads() : 1;
+    double vmax2 = 0, check = 0;
+#pragma omp parallel num_threads(threads) reduction(max : vmax2) reduction(+ : check)
+    {
+#ifdef _OPENMP
+      const int t = omp_get_thread_num(), nt = omp_get_num_threads();
+#else
+      const int t = 0, nt = 1;
+#endif
+      const Index lo = Index(std::int64_t(n) * t / nt), hi = Index(std::int64_t(n) * (t + 1) / nt);
+      Index b = mv.first_busy(lo);
+      for (Index c0 = lo; c0 < hi; c0 += kChunk) mv.chunk(c0, std::min(hi, c0 + kChunk), b, vmax2, check);
+    }
+    book_moved(s, dt, vmax2);
+    vmax2_out = vmax2;
     return !(check == 0);
+  }
+
+  // Fused pass (large scenes): the particle pass of this step and the pairs of the next step's
+  // contact pass in one sweep over the particles, so that the contacts find their particles in
+  // cache instead of memory. A pair owned by particle i is evaluated as soon as every particle
+  // within the near list's reach of i has moved; owners whose partners lie in another thread's
+  // part wait for a barrier; the walls follow all pairs, as in contact_pass. The same
+  // arithmetic on the same entries as the two passes, in the same order per owner: the same
+  // bits. Only for steps after which no neighbour list can be due (fusable()). Returns true if a
+  // new velocity is not finite; sets vmax2 to max |v|^2 and `next` to the next step's findings.
+  static bool fused_pass(Simulation& s, double dt, double& vmax2_out, Found& next) {
+    const Mover mv(s, dt);
+    const Pass c(s, dt, 1);
+    const Index n = static_cast<Index>(s.n_), nw = Index(s.wall_near_.size());
+    const Index below = s.near_reach_below_, above = s.near_reach_above_;
+    const Index* owned = s.near_offset_.data();
+    const int threads = n >= s.opt_.parallel_min ? s.threads() : 1;
+    double vmax2 = 0, check = 0, excess = 0, fmax = 0;
+    int bad = 0;
+#pragma omp parallel num_threads(threads) reduction(max : vmax2, excess, fmax, bad) \
+    reduction(+ : check)
+    {
+#ifdef _OPENMP
+      const int t = omp_get_thread_num(), nt = omp_get_num_threads();
+#else
+      const int t = 0, nt = 1;
+#endif
+      const Index lo = Index(std::int64_t(n) * t / nt), hi = Index(std::int64_t(n) * (t + 1) / nt);
+      // Owners in [ilo, ihi) have all their partners in [lo, hi).
+      const Index ilo = t == 0 ? lo : std::min(hi, lo + below);
+      const Index ihi = t == nt - 1 ? hi : std::max(ilo, hi - above);
+      Scan scan{};
+      Block block(c.same);
+      Found f;
+      Index b = mv.first_busy(lo), done = ilo;  // owners [ilo, done) evaluated
+      for (Index c0 = lo; c0 < hi; c0 += kChunk) {
+        const Index c1 = std::min(hi, c0 + kChunk);
+        mv.chunk(c0, c1, b, vmax2, check);
+        const Index ready = std::min(ihi, c1 - above);  // every partner of an owner below has moved
+        if (ready > done) {
+          pair_range(c, owned[done], owned[ready], false, scan, block, f);
+          done = ready;
+        }
+      }
+      pair_range(c, owned[done], owned[ihi], false, scan, block, f);
+#pragma omp barrier
+      pair_range(c, owned[lo], owned[ilo], false, scan, block, f);
+      pair_range(c, owned[ihi], owned[hi], false, scan, block, f);
+#pragma omp barrier
+      wall_part(c, s.active_.data(), nw, t, nt, scan, block, f);
+      excess = f.excess, fmax = f.fmax, bad = f.bad;
+    }
+    book_moved(s, dt, vmax2);
+    vmax2_out = vmax2;
+    next = {excess, fmax, bad};
+    return !(check == 0);
+  }
+
+  // Whether runs of this scene fuse steps where they can.
+  static bool fuses(const Simulation& s) { return kBlocked && !MovingWalls && s.n_ >= kFar; }
+
+  // Whether this step may be fused with the next step's contact pass: no neighbour list can be
+  // due after it. Any particle's new speed is at most its old one plus dt (|g| + the most
+  // entries it sums x the largest contact force / the smallest mass); the step then moves no
+  // particle further than dt times that (the factor 1 + 1e-9 covers rounding).
+  static bool fusable(const Simulation& s, double dt, double vmax2, const Found& now,
+                      double min_mass) {
+    const double speed = std::sqrt(vmax2) + dt * (s.opt_.gravity.norm() +
+                                                   double(s.max_entries_) * now.fmax / min_mass);
+    const double step = dt * speed * (1 + 1e-9);
+    return s.list_valid_ && !s.opt_.rebuild_every_step && std::isfinite(step) &&
+           2.0 * (s.moved_ + step) <= s.list_skin_ && 2.0 * (s.moved_near_ + step) <= s.near_skin();
   }
 };
 
