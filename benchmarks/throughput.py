@@ -94,7 +94,7 @@ def child(args) -> None:
     t_warm = time.perf_counter()
     sim.run(steps=warmup)
     t_warm = time.perf_counter() - t_warm
-    rebuilds0 = sim.rebuild_count
+    rebuilds0, fused0 = sim.rebuild_count, sim.fused_step_count
     timed = steps - warmup
     error = None
     load_before = os.getloadavg()[0] if hasattr(os, "getloadavg") else None
@@ -116,6 +116,7 @@ def child(args) -> None:
         "other_load": other, "loadavg_before": load_before, "rate": n * timed / (t1 - t0) if error is None else None,
         "build_s": t_build, "warmup_s": t_warm,
         "rebuilds": sim.rebuild_count, "rebuilds_timed": sim.rebuild_count - rebuilds0,
+        "fused_timed": sim.fused_step_count - fused0,
         "rss_after_import_kib": rss0, "maxrss_after_import_kib": maxrss0,
         "rss_after_build_kib": rss_built, "peak_rss_kib": peak,
         "bytes_per_particle": (peak - rss0) * 1024.0 / n,
@@ -181,7 +182,8 @@ def print_run(r) -> None:
     s = r["summary"]
     print(f"{head}  {fmt_rate(r['rate'])} particle-steps/s  loop {r['loop_s']:.3f} s "
           f"({r['timed_steps']} steps + {r['warmup']} warm-up; build {r['build_s']:.2f} s, "
-          f"warm-up {r['warmup_s']:.3f} s; {r['rebuilds_timed']} rebuilds in the loop)  "
+          f"warm-up {r['warmup_s']:.3f} s; {r['rebuilds_timed']} rebuilds and "
+          f"{r.get('fused_timed', 0)} fused steps in the loop)  "
           f"peak RSS {r['peak_rss_kib'] / 1024:.1f} MiB, {r['bytes_per_particle']:.0f} B/particle "
           f"({(r['rss_after_build_kib'] - r['rss_after_import_kib']) * 1024 / r['n']:.0f} after build, "
           f"+{(r['peak_rss_kib'] - r['rss_after_build_kib']) * 1024 / r['n']:.0f} by the end of the loop)", flush=True)
