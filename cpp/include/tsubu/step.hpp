@@ -451,8 +451,8 @@ struct Stepper {
 
   // Entries s.act[0, len), len <= kBlock, as pair_entry for each, in order. Returns true if a
   // force is not finite.
-  TSUBU_INLINE static bool pair_block(const Pass& c, const Scan& s, int len, Block& b, double& excess,
-                         double& fmax) {
+  TSUBU_INLINE static bool pair_block(const Pass& c, const Scan& s, int len, Block& b,
+                                      double& excess, double& fmax) {
     if (c.same)
       gather<true>(c, s, len, b, excess);
     else
@@ -695,8 +695,7 @@ struct Stepper {
   // reads are still in the nearest cache when the contacts among them are evaluated. `far`: the
   // partners' positions are requested two chunks ahead.
   [[gnu::noinline]] static void pair_range(const Pass& c, Index lo, Index hi, bool far, Scan& scan,
-                                           Block& block, Found& found) {
-    Found f = found;  // a local: gcc keeps it in registers through the stores to the block
+                                           Block& block, Found& f) {
     for (Index base = lo; base < hi; base += kBlock) {
       if (far) prefetch_partners(c, std::min(hi, base + 2 * kBlock), std::min(hi, base + 3 * kBlock));
       const Index count = compact_pairs(c, base, std::min<Index>(hi, base + kBlock), scan);
@@ -716,7 +715,6 @@ struct Stepper {
         }
       }
     }
-    found = f;
   }
 
   static void note_force(const Eigen::Map<Vec3>& force, Found& f) {
