@@ -753,6 +753,21 @@ struct Stepper {
     }
   }
 
+  // Inside a parallel region: this thread's number, the team's size and its part [lo, hi) of n
+  // particles (contiguous, in order of thread number).
+  struct Share {
+    int t, nt;
+    Index lo, hi;
+  };
+  static Share share(Index n) {
+#ifdef _OPENMP
+    const int t = omp_get_thread_num(), nt = omp_get_num_threads();
+#else
+    const int t = 0, nt = 1;
+#endif
+    return {t, nt, Index(std::int64_t(n) * t / nt), Index(std::int64_t(n) * (t + 1) / nt)};
+  }
+
   // Pass 1: every near pair and near-wall entry in contact, or that was in contact last step,
   // is evaluated (or ended) and its result stored with it; each owner books the energy its
   // entries lost.
@@ -765,19 +780,15 @@ struct Stepper {
     int bad = 0;
 #pragma omp parallel num_threads(threads) reduction(max : excess, fmax, bad)
     {
-#ifdef _OPENMP
-      const int t = omp_get_thread_num(), nt = omp_get_num_threads();
-#else
-      const int t = 0, nt = 1;
-#endif
+      const Share me = share(0);
       auto pair_owner = [&](Index q) { return c.own[q]; };
       Scan scan{};
       Block block(c.same);
       Found f;
-      pair_range(c, part_start(pair_owner, np, t, nt), part_start(pair_owner, np, t + 1, nt), far,
-                 scan, block, f);
+      pair_range(c, part_start(pair_owner, np, me.t, me.nt),
+                 part_start(pair_owner, np, me.t + 1, me.nt), far, scan, block, f);
 #pragma omp barrier
-      wall_part(c, s.active_.data(), nw, t, nt, scan, block, f);
+      wall_part(c, s.active_.data(), nw, me.t, me.nt, scan, block, f);
       excess = f.excess, fmax = f.fmax, bad = f.bad;
     }
     return {excess, fmax, bad};
@@ -969,14 +980,10 @@ struct Stepper {
     double vmax2 = 0, check = 0;
 #pragma omp parallel num_threads(threads) reduction(max : vmax2) reduction(+ : check)
     {
-#ifdef _OPENMP
-      const int t = omp_get_thread_num(), nt = omp_get_num_threads();
-#else
-      const int t = 0, nt = 1;
-#endif
-      const Index lo = Index(std::int64_t(n) * t / nt), hi = Index(std::int64_t(n) * (t + 1) / nt);
-      Index b = mv.first_busy(lo);
-      for (Index c0 = lo; c0 < hi; c0 += kChunk) mv.chunk(c0, std::min(hi, c0 + kChunk), b, vmax2, check);
+      const Share me = share(n);
+      Index b = mv.first_busy(me.lo);
+      for (Index c0 = me.lo; c0 < me.hi; c0 += kChunk)
+        mv.chunk(c0, std::min(me.hi, c0 + kChunk), b, vmax2, check);
     }
     book_moved(s, dt, vmax2);
     vmax2_out = vmax2;
@@ -1003,12 +1010,7 @@ struct Stepper {
 #pragma omp parallel num_threads(threads) reduction(max : vmax2, excess, fmax, bad) \
     reduction(+ : check)
     {
-#ifdef _OPENMP
-      const int t = omp_get_thread_num(), nt = omp_get_num_threads();
-#else
-      const int t = 0, nt = 1;
-#endif
-      const Index lo = Index(std::int64_t(n) * t / nt), hi = Index(std::int64_t(n) * (t + 1) / nt);
+      const auto [t, nt, lo, hi] = share(n);
       // Owners in [ilo, ihi) have all their partners in [lo, hi).
       const Index ilo = t == 0 ? lo : std::min(hi, lo + below);
       const Index ihi = t == nt - 1 ? hi : std::max(ilo, hi - above);
