@@ -105,11 +105,17 @@ PYBIND11_MODULE(_core, m) {
            [](tsubu::Simulation& s, double density, double kn, double kt, double restitution,
               double friction, double rolling_friction, double tangential_damping,
               double roughness, const std::string& distribution, const std::string& shadow) {
-             tsubu::Material mat{density,          kn,
-                                 kt,               restitution,
-                                 friction,         rolling_friction,
-                                 tangential_damping, roughness,
-                                 to_distribution(distribution), to_shadow(shadow)};
+             tsubu::Material mat;
+             mat.density = density;
+             mat.kn = kn;
+             mat.kt = kt;
+             mat.restitution = restitution;
+             mat.friction = friction;
+             mat.rolling_friction = rolling_friction;
+             mat.tangential_damping = tangential_damping;
+             mat.roughness = roughness;
+             mat.roughness_distribution = to_distribution(distribution);
+             mat.shadow = to_shadow(shadow);
              return s.add_material(mat);
            },
            "density"_a, "kn"_a, "kt"_a, "restitution"_a, "friction"_a, "rolling_friction"_a,

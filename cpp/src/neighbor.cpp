@@ -4,7 +4,6 @@
 #include <cmath>
 #include <limits>
 
-#include "tsubu/contact/normal.hpp"
 #include "tsubu/simulation.hpp"
 
 namespace tsubu {
@@ -19,18 +18,6 @@ void insertion_sort(Index* first, Index* last, Key key) {
     Index* b = a;
     for (; b > first && key(*(b - 1)) > kv; --b) *b = *(b - 1);
     *b = v;
-  }
-}
-
-// a[k] = a[perm[k]] (width values a particle), one component at a time through a scratch of n
-// values, so that no array is duplicated and every array keeps its exact capacity.
-template <class A>
-void permute(A& a, const Array<Index>& perm, int width, A& scratch) {
-  const std::size_t n = perm.size();
-  scratch.resize(n);
-  for (int c = 0; c < width; ++c) {
-    for (std::size_t k = 0; k < n; ++k) scratch[k] = a[width * perm[k] + c];
-    for (std::size_t k = 0; k < n; ++k) a[width * k + c] = scratch[k];
   }
 }
 
@@ -50,9 +37,8 @@ bool Simulation::needs_rebuild() const {
   for (std::size_t w = 0; w < planes_.size(); ++w) {
     const Plane& p = planes_[w];
     if (!p.moving()) continue;
-    // |change of the signed distance| <= |n.(p - p0)| + |n - n0| |x - p0| for any particle.
-    const double shift = std::abs(p.normal.dot(p.point - plane_point_ref_[w])) +
-                         (p.normal - plane_normal_ref_[w]).norm() * (plane_reach_ + list_skin_);
+    const double shift =
+        p.shift_since(plane_point_ref_[w], plane_normal_ref_[w], plane_reach_ + list_skin_);
     if (moved_ + shift > list_skin_) return true;
   }
   return false;
@@ -70,7 +56,7 @@ void Simulation::sort_by_cell(double h, const Vec3& lo, const std::array<long, 3
   for (std::size_t k = 0; k < n; ++k) {
     long c[3];
     for (int d = 0; d < 3; ++d)
-      c[d] = std::clamp(static_cast<long>((x_[3 * k + d] - lo[d]) / h), 0L, dims[d] - 1);
+      c[d] = std::clamp(static_cast<long>((particles_.x[3 * k + d] - lo[d]) / h), 0L, dims[d] - 1);
     cell_of_[k] = static_cast<Index>((c[2] * dims[1] + c[1]) * dims[0] + c[0]);
   }
   cell_start_.assign(ncell + 1, 0);
@@ -82,42 +68,33 @@ void Simulation::sort_by_cell(double h, const Vec3& lo, const std::array<long, 3
     fill.assign(cell_start_.begin(), cell_start_.end() - 1);
     for (std::size_t k = 0; k < n; ++k) perm_[fill[cell_of_[k]]++] = static_cast<Index>(k);
   }
-  permute(x_, perm_, 3, scratch_);
-  permute(v_, perm_, 3, scratch_);
-  permute(w_, perm_, 3, scratch_);
-  permute(radius_, perm_, 1, scratch_);
-  permute(mass_, perm_, 1, scratch_);
-  permute(inv_mass_, perm_, 1, scratch_);
-  permute(inv_inertia_, perm_, 1, scratch_);
-  permute(dissipated_, perm_, 1, scratch_);
-  permute(material_, perm_, 1, scratch_int_);
-  // ids through index_of_, rebuilt just below (ids are < n, so they fit an Index)
+  particles_.permute(perm_, scratch_);
   index_of_.resize(n);
-  for (std::size_t k = 0; k < n; ++k) index_of_[k] = static_cast<Index>(id_[perm_[k]]);
-  for (std::size_t k = 0; k < n; ++k) id_[k] = index_of_[k];
-  for (std::size_t k = 0; k < n; ++k) index_of_[id_[k]] = static_cast<Index>(k);
+  for (std::size_t k = 0; k < n; ++k) index_of_[particles_.id[k]] = static_cast<Index>(k);
 }
 
 void Simulation::stash_near() {
   // Only touching entries have state: copy theirs, compactly, with rows by owner.
   const std::size_t rows = near_offset_.empty() ? 0 : near_offset_.size() - 1;
   std::size_t count = 0;
-  for (double o : pair_overlap_) count += o > 0;
+  for (double o : pair_state_.overlap) count += o > 0;
   old_near_offset_.resize(rows + 1);
   old_near_partner_id_.resize(count);
+  const auto state = pair_state_.carried();
+  const auto width = EntryStore::widths(pair_shape_);
   for (std::size_t k = 0; k < kEntryArrays; ++k)
-    old_pair_state_[k].resize(pair_state(k)->empty() ? 0 : count * kEntryWidth[k]);
+    old_pair_state_[k].resize(state[k]->empty() ? 0 : count * width[k]);
   std::array<const double*, kEntryArrays> now;
-  for (std::size_t k = 0; k < kEntryArrays; ++k) now[k] = pair_state(k)->data();
+  for (std::size_t k = 0; k < kEntryArrays; ++k) now[k] = state[k]->data();
   std::size_t c = 0;
   old_near_offset_[0] = 0;
   for (std::size_t i = 0; i < rows; ++i) {
     for (Index q = near_offset_[i]; q < near_offset_[i + 1]; ++q) {
-      if (!(pair_overlap_[q] > 0)) continue;
-      old_near_partner_id_[c] = id_[near_partner_[q]];
+      if (!(pair_state_.overlap[q] > 0)) continue;
+      old_near_partner_id_[c] = particles_.id[near_partner_[q]];
       for (std::size_t k = 0; k < kEntryArrays; ++k) {
         if (old_pair_state_[k].empty()) continue;
-        const std::size_t wd = kEntryWidth[k];
+        const std::size_t wd = width[k];
         const double* from = now[k] + wd * q;
         std::copy(from, from + wd, old_pair_state_[k].data() + wd * c);
       }
@@ -140,7 +117,8 @@ void Simulation::rebuild(bool keep_history) {
     old_wall_offset_.swap(wall_offset_);
     old_wall_index_.swap(wall_index_);
     old_index_of_ = index_of_;
-    for (std::size_t k = 0; k < kEntryArrays; ++k) old_wall_state_[k].swap(*wall_state(k));
+    const auto now = wall_state_.carried();
+    for (std::size_t k = 0; k < kEntryArrays; ++k) old_wall_state_[k].swap(*now[k]);
   }
 
   // 2. Cells: the bounding box of the particles, cells no smaller than the largest cutoff.
@@ -148,14 +126,8 @@ void Simulation::rebuild(bool keep_history) {
   std::array<long, 3> dims{1, 1, 1};
   double h = 1;
   if (n > 0) {
-    lo = Vec3::Constant(std::numeric_limits<double>::infinity());
-    hi = -lo;
-    double rmax = 0;
-    for (std::size_t k = 0; k < n; ++k) {
-      lo = lo.cwiseMin(Vec3(vec3(x_.data(), k)));
-      hi = hi.cwiseMax(Vec3(vec3(x_.data(), k)));
-      rmax = std::max(rmax, radius_[k]);
-    }
+    box_.grid_extent(particles_.x.data(), n, lo, hi);
+    const double rmax = *std::max_element(particles_.radius.begin(), particles_.radius.end());
     h = 2.0 * rmax + skin;
     const double max_cells = 2.0 * static_cast<double>(n) + 1000.0;
     for (;;) {
@@ -172,8 +144,8 @@ void Simulation::rebuild(bool keep_history) {
 
   // 3. Verlet half list, each pair owned by its lower id: count, prefix sum, fill, sort.
   pair_offset_.assign(n + 1, 0);
-  const double* x = x_.data();
-  const double* r = radius_.data();
+  const double* x = particles_.x.data();
+  const double* r = particles_.radius.data();
   auto for_each_neighbor = [&](Index i, auto&& visit) {
     const Vec3 xi = vec3(x, i);
     long c[3];
@@ -184,9 +156,9 @@ void Simulation::rebuild(bool keep_history) {
         for (long cx = std::max(c[0] - 1, 0L); cx <= std::min(c[0] + 1, dims[0] - 1); ++cx) {
           const long cell = (cz * dims[1] + cy) * dims[0] + cx;
           for (Index j = cell_start_[cell]; j < cell_start_[cell + 1]; ++j) {
-            if (id_[j] <= id_[i]) continue;
+            if (particles_.id[j] <= particles_.id[i]) continue;
             const double cut = r[i] + r[j] + skin;
-            if ((xi - vec3(x, j)).squaredNorm() < cut * cut) visit(j);
+            if (box_.displacement(xi, vec3(x, j)).squaredNorm() < cut * cut) visit(j);
           }
         }
   };
@@ -204,15 +176,13 @@ void Simulation::rebuild(bool keep_history) {
     Index e = pair_offset_[i];
     for_each_neighbor(i, [&](Index j) { pair_partner_[e++] = j; });
     insertion_sort(pair_partner_.data() + pair_offset_[i], pair_partner_.data() + pair_offset_[i + 1],
-                   [&](Index j) { return id_[j]; });
+                   [&](Index j) { return particles_.id[j]; });
   }
 
   // 4. Near-wall list: particles within r + skin of a plane (or behind it).
   wall_offset_.assign(n + 1, 0);
   const std::size_t nw = planes_.size();
-  auto near_wall = [&](std::size_t i, std::size_t w) {
-    return planes_[w].normal.dot(vec3(x, i) - planes_[w].point) < r[i] + skin;
-  };
+  auto near_wall = [&](std::size_t i, std::size_t w) { return planes_[w].near(vec3(x, i), r[i], skin); };
   for (std::size_t i = 0; i < n; ++i) {
     Index count = 0;
     for (std::size_t w = 0; w < nw; ++w) count += near_wall(i, w);
@@ -229,22 +199,22 @@ void Simulation::rebuild(bool keep_history) {
       }
   }
   size_entry_buffers();
-  for (std::size_t k = 0; k < kEntryArrays; ++k)
-    std::fill(wall_state(k)->begin(), wall_state(k)->end(), 0.0);
-  if (transfer) {  // wall contact state, by (id, wall)
+  for (Array<double>* a : wall_state_.carried()) std::fill(a->begin(), a->end(), 0.0);
+  if (transfer) {  // wall contact state, by (id, wall key)
     for (Index i = 0; i < ni; ++i) {
-      const Id a = id_[i];
+      const Id a = particles_.id[i];
       if (a >= static_cast<Id>(old_index_of_.size())) continue;  // added since
       const Index oi = old_index_of_[a];
       if (static_cast<std::size_t>(oi) >= old_n) continue;
       for (Index e = wall_offset_[i]; e < wall_offset_[i + 1]; ++e)
         for (Index q = old_wall_offset_[oi]; q < old_wall_offset_[oi + 1]; ++q)
-          if (old_wall_index_[q] == wall_index_[e]) {
+          if (WallKey{old_wall_index_[q], 0} == wall_key(e)) {
+            const auto width = EntryStore::widths(wall_shape_);
             for (std::size_t k = 0; k < kEntryArrays; ++k) {
               const Array<double>& old = old_wall_state_[k];
-              Array<double>& now = *wall_state(k);
+              Array<double>& now = *wall_state_.carried()[k];
               if (now.empty() || old.empty()) continue;  // the old or new law has no such array
-              const std::size_t wd = kEntryWidth[k];
+              const std::size_t wd = width[k];
               std::copy(&old[wd * q], &old[wd * q] + wd, &now[wd * e]);
             }
             old_wall_state_[1][q] = 0;  // carried
@@ -252,11 +222,11 @@ void Simulation::rebuild(bool keep_history) {
           }
       for (Index q = old_wall_offset_[oi]; q < old_wall_offset_[oi + 1]; ++q)
         if (old_wall_state_[1][q] > 0)  // touching, and now beyond the skin: it opened
-          dissipated_[i] += spring_energy(material_[i], planes_[old_wall_index_[q]].material,
+          particles_.dissipated[i] += spring_energy(particles_.material[i], planes_[old_wall_index_[q]].material,
                                           old_wall_state_[0], q);
     }
   }
-  for (std::size_t e = 0; e < wall_overlap_.size(); ++e) wall_touch_[e] = wall_overlap_[e] > 0;
+  for (std::size_t e = 0; e < wall_state_.overlap.size(); ++e) wall_state_.touch[e] = wall_state_.overlap[e] > 0;
 
   // 5. The near list and its contact state.
   refresh_near(transfer, true);
@@ -281,15 +251,15 @@ void Simulation::rebuild(bool keep_history) {
 
 void Simulation::refresh_near(bool transfer, bool reordered) {
   const std::size_t n = n_;
-  const double* x = x_.data();
-  const double* r = radius_.data();
+  const double* x = particles_.x.data();
+  const double* r = particles_.radius.data();
   const double reach = near_skin();
 
   // 1. The pairs of the Verlet list within r_i + r_j + skin/10, in the Verlet list's order:
   //    counted, then stored.
   auto near = [&](std::size_t i, Index j) {
     const double cut = r[i] + r[j] + reach;
-    return (vec3(x, i) - vec3(x, j)).squaredNorm() < cut * cut;
+    return box_.displacement(vec3(x, i), vec3(x, j)).squaredNorm() < cut * cut;
   };
   // Rows are independent: counted and filled in parallel (the same list for any thread count).
   const long ni = static_cast<long>(n);
@@ -321,15 +291,16 @@ void Simulation::refresh_near(bool transfer, bool reordered) {
 
   // 2. Contact state, carried over by (owner id, partner id): rows are sorted by partner id.
   size_entry_buffers();
-  for (std::size_t k = 0; k < kEntryArrays; ++k)
-    std::fill(pair_state(k)->begin(), pair_state(k)->end(), 0.0);
+  for (Array<double>* a : pair_state_.carried()) std::fill(a->begin(), a->end(), 0.0);
   const std::size_t old_n = old_near_offset_.size() == 0 ? 0 : old_near_offset_.size() - 1;
   if (transfer && old_n > 0) {
     // Only touching entries have state (an entry's results and history are zeroed when it
     // opens; a rough entry redraws its facet at first touch).
+    const auto state = pair_state_.carried();
+    const auto width = EntryStore::widths(pair_shape_);
     std::array<Array<double>*, kEntryArrays> now_state;
     for (std::size_t k = 0; k < kEntryArrays; ++k)
-      now_state[k] = (pair_state(k)->empty() || old_pair_state_[k].empty()) ? nullptr : pair_state(k);
+      now_state[k] = (state[k]->empty() || old_pair_state_[k].empty()) ? nullptr : state[k];
     // (the stash holds touching entries only, rows sorted by partner id)
     const Array<double>& old_overlap = old_pair_state_[1];
     // Each row writes only its own entries, its own old row and its own dissipation.
@@ -337,19 +308,19 @@ void Simulation::refresh_near(bool transfer, bool reordered) {
     for (long i = 0; i < ni; ++i) {
       Index oi = static_cast<Index>(i);
       if (reordered) {
-        if (id_[i] >= static_cast<Id>(old_index_of_.size())) continue;  // added since
-        oi = old_index_of_[id_[i]];
+        if (particles_.id[i] >= static_cast<Id>(old_index_of_.size())) continue;  // added since
+        oi = old_index_of_[particles_.id[i]];
       }
       if (static_cast<std::size_t>(oi) >= old_n) continue;
       Index p = old_near_offset_[oi];
       const Index p_end = old_near_offset_[oi + 1];
       for (Index q = near_offset_[i]; q < near_offset_[i + 1] && p < p_end; ++q) {
-        const Id b = id_[near_partner_[q]];
+        const Id b = particles_.id[near_partner_[q]];
         while (p < p_end && old_near_partner_id_[p] < b) ++p;
         if (p == p_end || old_near_partner_id_[p] != b || !(old_overlap[p] > 0)) continue;
         for (std::size_t k = 0; k < kEntryArrays; ++k) {
           if (!now_state[k]) continue;  // the old or new law has no such array
-          const std::size_t wd = kEntryWidth[k];
+          const std::size_t wd = width[k];
           const double* from = old_pair_state_[k].data() + wd * p;
           std::copy(from, from + wd, now_state[k]->data() + wd * q);
         }
@@ -358,11 +329,11 @@ void Simulation::refresh_near(bool transfer, bool reordered) {
       for (p = old_near_offset_[oi]; p < p_end; ++p)
         if (old_overlap[p] > 0) {  // touching, and now beyond the near list: it opened
           const Index j = index_of_[old_near_partner_id_[p]];
-          dissipated_[i] += spring_energy(material_[i], material_[j], old_pair_state_[0], p);
+          particles_.dissipated[i] += spring_energy(particles_.material[i], particles_.material[j], old_pair_state_[0], p);
         }
     }
   }
-  for (std::size_t q = 0; q < pair_overlap_.size(); ++q) pair_touch_[q] = pair_overlap_[q] > 0;
+  for (std::size_t q = 0; q < pair_state_.overlap.size(); ++q) pair_state_.touch[q] = pair_state_.overlap[q] > 0;
 
   // 3. Reverse index: for each particle, the entries where it is the partner, by owner id.
   near_rev_offset_.assign(n + 1, 0);
@@ -378,7 +349,7 @@ void Simulation::refresh_near(bool transfer, bool reordered) {
   for (long i = 0; i < ni; ++i)
     if (near_rev_offset_[i + 1] - near_rev_offset_[i] > 1)
       insertion_sort(near_rev_.data() + near_rev_offset_[i], near_rev_.data() + near_rev_offset_[i + 1],
-                     [&](Index q) { return id_[near_owner_[q]]; });
+                     [&](Index q) { return particles_.id[near_owner_[q]]; });
   // 4. The near-wall entries, and the particles with entries.
   bool moving = false;
   for (const Plane& p : planes_) moving = moving || p.moving();
@@ -389,7 +360,7 @@ void Simulation::refresh_near(bool transfer, bool reordered) {
   for (std::size_t i = 0; i < n; ++i) {
     for (Index e = wall_offset_[i]; e < wall_offset_[i + 1]; ++e) {
       const Plane& p = planes_[wall_index_[e]];
-      if (moving || wall_touch_[e] || p.normal.dot(vec3(x, i) - p.point) - r[i] < reach)
+      if (moving || wall_state_.touch[e] || p.distance(vec3(x, i)) - r[i] < reach)
         wall_near_.push_back(e);
     }
     wall_near_offset_[i + 1] = static_cast<Index>(wall_near_.size());
@@ -454,50 +425,32 @@ void Simulation::measure_near() {
 }
 
 void Simulation::size_entry_buffers() {
-  const std::size_t m = near_partner_.size(), k = wall_index_.size();
-  fit(pair_overlap_, m);
-  fit(pair_touch_, m);
-  fit(pair_force_, 3 * m);
-  fit(wall_overlap_, k);
-  fit(wall_touch_, k);
-  fit(wall_force_, 3 * k);
-  const std::size_t mt = has_history_ ? m : 0, kt = has_history_ ? k : 0;
-  const std::size_t mm = (has_history_ || has_rough_) ? m : 0;
-  fit(pair_xi_, 3 * mt);
-  fit(pair_nxft_, 3 * mm);
-  fit(wall_xi_, 3 * kt);
-  fit(wall_nxft_, 3 * kt);
-  fit(pair_rough_, 6 * (has_rough_ ? m : 0));
-  fit(wall_rough_, 6 * (has_rough_ ? k : 0));
-  const std::size_t mr = has_rolling_ ? m : 0, kr = has_rolling_ ? k : 0;
-  fit(pair_roll_, 3 * mr);
-  fit(wall_roll_, 3 * kr);
+  auto size = [](EntryStore& st, const EntryShape& shape, std::size_t entries) {
+    const auto width = EntryStore::widths(shape);
+    const auto arrays = st.carried();
+    for (std::size_t k = 0; k < EntryStore::kFields; ++k) fit(*arrays[k], width[k] * entries);
+    fit(st.touch, entries);
+  };
+  size(pair_state_, pair_shape_, near_partner_.size());
+  size(wall_state_, wall_shape_, wall_index_.size());
 }
 
 void Simulation::cache_near_terms() {
   fit(near_eta_, near_partner_.size());
+  const CompiledLaw& law = this->law();
+  const double *mass = particles_.mass.data();
+  const int* material = particles_.material.data();
   for (std::size_t q = 0; q < near_partner_.size(); ++q) {
     const Index i = near_owner_[q], j = near_partner_[q];
-    const double m_eff = mass_[i] * mass_[j] / (mass_[i] + mass_[j]);
-    near_eta_[q] = HookeNormal::damping(pairs_(material_[i], material_[j]), m_eff);
+    const double m_eff = mass[i] * mass[j] / (mass[i] + mass[j]);
+    near_eta_[q] = law.damping_coefficient(pairs_(material[i], material[j]), m_eff);
   }
 }
 
 double Simulation::spring_energy(int a, int b, const Array<double>& xi, std::size_t e) const {
   if (xi.empty()) return 0;
-  return 0.5 * pairs_(a, b).kt * vec3(xi.data(), e).squaredNorm();
-}
-
-Array<double>* Simulation::pair_state(std::size_t k) {
-  Array<double>* arrays[kEntryArrays] = {&pair_xi_,   &pair_overlap_, &pair_force_,
-                                               &pair_nxft_, &pair_roll_,    &pair_rough_};
-  return arrays[k];
-}
-
-Array<double>* Simulation::wall_state(std::size_t k) {
-  Array<double>* arrays[kEntryArrays] = {&wall_xi_,   &wall_overlap_, &wall_force_,
-                                               &wall_nxft_, &wall_roll_,    &wall_rough_};
-  return arrays[k];
+  const CompiledLaw& law = this->law();
+  return law.tangential_energy(pairs_(a, b), xi.data() + law.history_width * e);
 }
 
 std::vector<std::array<Id, 2>> Simulation::neighbor_pairs() const {
@@ -505,7 +458,7 @@ std::vector<std::array<Id, 2>> Simulation::neighbor_pairs() const {
   if (pair_offset_.size() != n_ + 1) return out;
   for (std::size_t i = 0; i < n_; ++i)
     for (Index e = pair_offset_[i]; e < pair_offset_[i + 1]; ++e)
-      out.push_back({id_[i], id_[pair_partner_[e]]});
+      out.push_back({particles_.id[i], particles_.id[pair_partner_[e]]});
   std::sort(out.begin(), out.end());
   return out;
 }

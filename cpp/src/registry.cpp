@@ -1,65 +1,66 @@
-// Instantiates the time loop once per combination of features (X-macro below), and maps a
-// LawKey to it. Adding a law: write its evaluator, add a TangentialKind/flag, add a line here.
+// Instantiates the time loop once per combination of the slots' evaluator lists (registry.hpp)
+// and maps a LawKey to it.
 #include "tsubu/registry.hpp"
 
-#include "tsubu/step.hpp"
+#include <array>
+#include <utility>
+
+#include "tsubu/engine/driver.hpp"
 
 namespace tsubu {
 namespace {
 
-template <class T, class R, class Rough, bool Moving>
-void step_fn(Simulation& s, long steps) {
-  detail::Stepper<ContactLaw<T, R, Rough>, Moving>::run(s, steps);
+template <class Law>
+CompiledLaw compile() {
+  return {&detail::Stepper<Law>::run,
+          &Law::name,
+          &Law::critical_time_step,
+          &Law::contact_duration,
+          &Law::damping_coefficient,
+          &Law::normal_energy,
+          &Law::elastic_force,
+          &Law::tangential_energy,
+          Law::history_width,
+          Law::roughness::state_width,
+          Law::has_torque,
+          Law::rolling::enabled};
 }
 
-struct Entry {
-  TangentialKind tangential;
-  bool rolling;
-  bool rough;
-  bool moving;
-  StepFunction fn;
-};
+// Specialisation k: its slots' indices in mixed radix, the roughness slot the fastest.
+constexpr std::size_t kG = RoughnessLaws::size, kR = RollingLaws::size, kT = TangentialLaws::size,
+                      kD = DampingLaws::size, kN = NormalLaws::size;
+constexpr std::size_t kCount = kN * kD * kT * kR * kG;
 
-#define TSUBU_LAWS(X)                                  \
-  X(None, NoTangential, false, NoRolling)              \
-  X(None, NoTangential, true, RollingFriction)         \
-  X(Rotate, TangentialRotate, false, NoRolling)        \
-  X(Rotate, TangentialRotate, true, RollingFriction)   \
-  X(Literal, TangentialLiteral, false, NoRolling)      \
-  X(Literal, TangentialLiteral, true, RollingFriction)          \
-  X(RotateTruncate, TangentialRotateTruncate, false, NoRolling) \
-  X(RotateTruncate, TangentialRotateTruncate, true, RollingFriction)
-
-#define TSUBU_ENTRY(KIND, T, ROLL, R)                                                  \
-  {TangentialKind::KIND, ROLL, false, false, &step_fn<T, R, NoRoughness, false>},         \
-  {TangentialKind::KIND, ROLL, false, true, &step_fn<T, R, NoRoughness, true>},           \
-  {TangentialKind::KIND, ROLL, true, false, &step_fn<T, R, StochasticRoughness, false>},  \
-  {TangentialKind::KIND, ROLL, true, true, &step_fn<T, R, StochasticRoughness, true>},
-
-const Entry kRegistry[] = {TSUBU_LAWS(TSUBU_ENTRY)};
-
-const Entry& lookup(const LawKey& key) {
-  for (const Entry& e : kRegistry)
-    if (e.tangential == key.tangential && e.rolling == key.rolling && e.rough == key.roughness &&
-        e.moving == key.moving_walls)
-      return e;
-  throw InvalidArgument("no compiled contact law for this combination of features");
+constexpr std::size_t flat(const LawKey& k) {
+  return (((k.normal * kD + k.damping) * kT + k.tangential) * kR + k.rolling) * kG + k.roughness;
 }
+
+template <std::size_t K>
+CompiledLaw compile_at() {
+  using Law = ContactLaw<typename NormalLaws::template at<K / (kD * kT * kR * kG)>,
+                         typename DampingLaws::template at<K / (kT * kR * kG) % kD>,
+                         typename TangentialLaws::template at<K / (kR * kG) % kT>,
+                         typename RollingLaws::template at<K / kG % kR>,
+                         typename RoughnessLaws::template at<K % kG>>;
+  return compile<Law>();
+}
+
+template <std::size_t... K>
+std::array<CompiledLaw, kCount> compile_all(std::index_sequence<K...>) {
+  return {compile_at<K>()...};
+}
+
+const std::array<CompiledLaw, kCount> kLaws = compile_all(std::make_index_sequence<kCount>());
 
 }  // namespace
 
-StepFunction find_stepper(const LawKey& key) { return lookup(key).fn; }
-
-std::string law_name(const LawKey& key) {
-  std::string s = "hooke";
-  s += key.tangential == TangentialKind::None      ? "+frictionless"
-       : key.tangential == TangentialKind::Rotate  ? "+friction(rotate)"
-       : key.tangential == TangentialKind::Literal ? "+friction(literal)"
-                                                   : "+friction(rotate, truncate)";
-  if (key.rolling) s += "+rolling";
-  if (key.roughness) s += "+roughness";
-  s += key.moving_walls ? "+moving-walls" : "";
-  return s;
+const CompiledLaw& find_law(const LawKey& key) {
+  if (key.normal >= kN || key.damping >= kD || key.tangential >= kT || key.rolling >= kR ||
+      key.roughness >= kG)
+    throw InvalidArgument("no compiled contact law for this combination of features");
+  return kLaws[flat(key)];
 }
+
+std::size_t compiled_law_count() { return kCount; }
 
 }  // namespace tsubu

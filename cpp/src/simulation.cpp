@@ -7,7 +7,6 @@
 #include <sstream>
 #include <type_traits>
 
-#include "tsubu/contact/normal.hpp"
 #include "tsubu/registry.hpp"
 
 #ifdef TSUBU_HAVE_OPENMP
@@ -124,9 +123,7 @@ void Simulation::mix_pairs() {
   for (std::size_t a = 0; a < nm; ++a)
     for (std::size_t b = a; b < nm; ++b) {
       const PairParams p = pair_parameters(static_cast<int>(a), static_cast<int>(b));
-      const double limit = p.roughness_distribution == ScatterDistribution::Uniform
-                               ? 0.5 * M_PI / std::sqrt(3.0)
-                               : 0.5 * M_PI;
+      const double limit = RoughnessParams::limit(p.roughness_distribution);
       require(p.roughness < limit,
               "materials " + std::to_string(a) + " and " + std::to_string(b) +
                   " mix to a roughness of " + fmt(p.roughness * 180 / M_PI) +
@@ -157,31 +154,24 @@ Id Simulation::add_spheres(std::size_t n, const double* positions, const double*
       });
   }
   const Id first = static_cast<Id>(n_);
-  // A large batch gets exact capacity (doubling would keep up to 2x the memory per particle);
-  // many small ones grow geometrically.
-  auto grow = [](auto& a, std::size_t need) {
-    if (need > a.capacity()) a.reserve(std::max(need, a.capacity() + a.capacity() / 2));
-  };
-  for (auto* a : {&x_, &v_, &w_}) grow(*a, 3 * (n_ + n));
-  for (auto* a : {&radius_, &mass_, &inv_mass_, &inv_inertia_, &dissipated_}) grow(*a, n_ + n);
-  grow(material_, n_ + n);
-  grow(id_, n_ + n);
-  grow(index_of_, n_ + n);
+  particles_.grow(n_ + n);
+  if (n_ + n > index_of_.capacity())
+    index_of_.reserve(std::max(n_ + n, index_of_.capacity() + index_of_.capacity() / 2));
   for (std::size_t k = 0; k < n; ++k) {
     const double r = radii[k];
     const double m = materials_[materials[k]].density * 4.0 / 3.0 * M_PI * r * r * r;
     for (int c = 0; c < 3; ++c) {
-      x_.push_back(positions[3 * k + c]);
-      v_.push_back(velocities ? velocities[3 * k + c] : 0.0);
-      w_.push_back(angular_velocities ? angular_velocities[3 * k + c] : 0.0);
+      particles_.x.push_back(positions[3 * k + c]);
+      particles_.v.push_back(velocities ? velocities[3 * k + c] : 0.0);
+      particles_.w.push_back(angular_velocities ? angular_velocities[3 * k + c] : 0.0);
     }
-    radius_.push_back(r);
-    mass_.push_back(m);
-    inv_mass_.push_back(1.0 / m);
-    inv_inertia_.push_back(1.0 / (0.4 * m * r * r));  // I = 2/5 m r^2 (1.3)
-    dissipated_.push_back(0.0);
-    material_.push_back(materials[k]);
-    id_.push_back(static_cast<Id>(n_));
+    particles_.radius.push_back(r);
+    particles_.mass.push_back(m);
+    particles_.inv_mass.push_back(1.0 / m);
+    particles_.inv_inertia.push_back(1.0 / (0.4 * m * r * r));  // I = 2/5 m r^2 (1.3)
+    particles_.dissipated.push_back(0.0);
+    particles_.material.push_back(materials[k]);
+    particles_.id.push_back(static_cast<Id>(n_));
     index_of_.push_back(static_cast<Index>(n_));
     ++n_;
   }
@@ -191,10 +181,7 @@ Id Simulation::add_spheres(std::size_t n, const double* positions, const double*
 }
 
 void Simulation::reserve(std::size_t count) {
-  for (auto* a : {&x_, &v_, &w_}) a->reserve(3 * count);
-  for (auto* a : {&radius_, &mass_, &inv_mass_, &inv_inertia_, &dissipated_}) a->reserve(count);
-  material_.reserve(count);
-  id_.reserve(count);
+  particles_.reserve(count);
   index_of_.reserve(count);
 }
 
@@ -237,15 +224,13 @@ const Plane& Simulation::plane(int wall) const {
 }
 
 void Simulation::move_planes(double dt) {
-  for (Plane& p : planes_) {
-    p.point += dt * p.velocity;
-    const double angle = p.angular_velocity.norm() * dt;
-    if (angle > 0) {
-      const Vec3 axis = p.angular_velocity.normalized();
-      p.normal = Eigen::AngleAxisd(angle, axis) * p.normal;
-      p.normal.normalize();
-    }
-  }
+  for (Plane& p : planes_) p.advance(dt);
+}
+
+bool Simulation::walls_move() const {
+  for (const Plane& p : planes_)
+    if (p.moving()) return true;
+  return false;
 }
 
 // ---- time step ---------------------------------------------------------------------------
@@ -258,7 +243,7 @@ void Simulation::for_each_contact_type(F&& f) const {
   const std::size_t nm = materials_.size();
   std::vector<double> lightest(nm, std::numeric_limits<double>::infinity());
   for (std::size_t k = 0; k < n_; ++k)
-    lightest[material_[k]] = std::min(lightest[material_[k]], mass_[k]);
+    lightest[particles_.material[k]] = std::min(lightest[particles_.material[k]], particles_.mass[k]);
   std::vector<char> wall_material(nm, 0);
   for (const Plane& p : planes_) wall_material[p.material] = 1;
   for (std::size_t a = 0; a < nm; ++a) {
@@ -273,34 +258,19 @@ void Simulation::for_each_contact_type(F&& f) const {
   }
 }
 
-// Symplectic Euler of m x'' = -k x - eta x' (dashpot on the old velocity, as the loop does) is
-// stable iff k dt^2/m + 2 eta dt/m < 4, i.e. dt < 4m / (eta + sqrt(eta^2 + 4km)). This is the
-// spring and dashpot conditions of (2.31), 2 sqrt(m/k) and 2m/eta, analysed together: it equals
-// the first for eta = 0 and is below both otherwise (0.81 x 2 sqrt(m/k) at e = 0.5).
-static double euler_bound(double m, double k, double eta) {
-  return 4.0 * m / (eta + std::sqrt(eta * eta + 4.0 * k * m));
-}
-
 double Simulation::critical_time_step() const {
+  const CompiledLaw& law = find_law(law_key());
   double bound = std::numeric_limits<double>::infinity();
-  for_each_contact_type([&](const PairParams& p, double m) {
-    const double eta_n = HookeNormal::damping(p, m);
-    bound = std::min(bound, euler_bound(m, p.kn, eta_n));
-    // A sphere that can roll moves its contact point under a tangential force as a mass m/3.5
-    // would (1/m + c^2/I = 3.5/m).
-    if (p.friction > 0 && p.kt > 0)
-      bound = std::min(bound, euler_bound(m / 3.5, p.kt, p.tangential_damping * eta_n));
-  });
+  for_each_contact_type(
+      [&](const PairParams& p, double m) { bound = std::min(bound, law.critical_time_step(p, m)); });
   return bound;
 }
 
 double Simulation::contact_duration() const {
+  const CompiledLaw& law = find_law(law_key());
   double tc = std::numeric_limits<double>::infinity();
-  for_each_contact_type([&](const PairParams& p, double m) {
-    const double eta = HookeNormal::damping(p, m);
-    const double alpha = std::sqrt(p.kn / m - eta * eta / (4 * m * m));  // (B.3)
-    tc = std::min(tc, M_PI / alpha);                                     // (B.5)
-  });
+  for_each_contact_type(
+      [&](const PairParams& p, double m) { tc = std::min(tc, law.contact_duration(p, m)); });
   return tc;
 }
 
@@ -312,38 +282,45 @@ double Simulation::skin() const {
   if (opt_.skin > 0) return opt_.skin;
   if (n_ == 0) return 0;
   double sum = 0;
-  for (double r : radius_) sum += r;
+  for (double r : particles_.radius) sum += r;
   return 0.2 * 2.0 * sum / static_cast<double>(n_);
 }
 
-static LawKey law_key(const std::vector<Material>& materials, const PairTable& pairs,
-                      const std::vector<Plane>& planes, HistoryRule rule, SlipRule slip) {
-  LawKey key;
-  bool friction = false, rolling = false, rough = false;
-  for (std::size_t a = 0; a < materials.size(); ++a)
-    for (std::size_t b = 0; b < materials.size(); ++b) {
-      const PairParams& p = pairs(a, b);
-      friction |= p.friction > 0 && p.kt > 0;
-      rolling |= p.rolling_friction > 0;
-      rough |= p.roughness > 0;
-    }
-  if (friction)
-    key.tangential = rule == HistoryRule::Literal  ? TangentialKind::Literal
-                     : slip == SlipRule::Truncate ? TangentialKind::RotateTruncate
-                                                  : TangentialKind::Rotate;
-  key.rolling = rolling;
-  key.roughness = rough;
-  for (const Plane& p : planes) key.moving_walls |= p.moving();
-  return key;
-}
-
-std::string Simulation::law_name() const {
+PairTable Simulation::mixed_pairs() const {
   PairTable t;
   const std::size_t nm = materials_.size();
   t.resize(nm);
   for (std::size_t a = 0; a < nm; ++a)
     for (std::size_t b = a; b < nm; ++b) t.set(a, b, pair_parameters(int(a), int(b)));
-  return tsubu::law_name(law_key(materials_, t, planes_, opt_.history, opt_.slip));
+  return t;
+}
+
+// Each slot takes the evaluator the scene needs: the simplest that gives its physics.
+LawKey Simulation::law_key() const {
+  bool friction = false, rolling = false, rough = false;
+  const std::size_t nm = materials_.size();
+  for (std::size_t a = 0; a < nm; ++a)
+    for (std::size_t b = a; b < nm; ++b) {
+      const PairParams p = pair_parameters(int(a), int(b));
+      friction |= FrictionParams::used(p);
+      rolling |= RollingParams::used(p);
+      rough |= RoughnessParams::used(p);
+    }
+  LawKey key;
+  key.normal = NormalLaws::index_of<HookeNormal>();
+  key.damping = DampingLaws::index_of<RestitutionDamping>();
+  key.tangential = !friction                          ? TangentialLaws::index_of<NoTangential>()
+                   : opt_.history == HistoryRule::Literal ? TangentialLaws::index_of<TangentialLiteral>()
+                   : opt_.slip == SlipRule::Truncate   ? TangentialLaws::index_of<TangentialRotateTruncate>()
+                                                       : TangentialLaws::index_of<TangentialRotate>();
+  key.rolling = rolling ? RollingLaws::index_of<RollingFriction>() : RollingLaws::index_of<NoRolling>();
+  key.roughness =
+      rough ? RoughnessLaws::index_of<StochasticRoughness>() : RoughnessLaws::index_of<NoRoughness>();
+  return key;
+}
+
+std::string Simulation::law_name() const {
+  return find_law(law_key()).name() + (walls_move() ? "+moving-walls" : "");
 }
 
 void Simulation::prepare_run() {
@@ -359,13 +336,14 @@ void Simulation::prepare_run() {
   if (dt_ > crit && !opt_.allow_unstable_dt)
     throw InvalidArgument("dt = " + fmt(dt_) + " s exceeds the stability bound " + fmt(crit) +
                           " s of (2.31) for this scene; use a smaller dt or allow_unstable_dt");
-  const LawKey key = law_key(materials_, pairs_, planes_, opt_.history, opt_.slip);
-  has_history_ = key.tangential != TangentialKind::None;
-  has_rolling_ = key.rolling;
-  has_rough_ = key.roughness;
-  sphere_material_ = n_ > 0 ? material_[0] : -1;
+  law_ = &find_law(law_key());
+  const int moment = law_->history_width > 0 ? 3 : 0;
+  pair_shape_ = {law_->history_width, law_->rough_width > 0 ? 3 : moment, law_->rolling ? 3 : 0,
+                 law_->rough_width};
+  wall_shape_ = {law_->history_width, moment, law_->rolling ? 3 : 0, law_->rough_width};
+  sphere_material_ = n_ > 0 ? particles_.material[0] : -1;
   for (std::size_t k = 1; k < n_ && sphere_material_ >= 0; ++k)
-    if (material_[k] != sphere_material_) sphere_material_ = -1;
+    if (particles_.material[k] != sphere_material_) sphere_material_ = -1;
   if (!list_valid_) rebuild(true);
   size_entry_buffers();
   cache_near_terms();  // the pair table may have changed since the last run
@@ -384,8 +362,7 @@ void Simulation::run(long steps) {
     return;
   }
   prepare_run();
-  const LawKey key = law_key(materials_, pairs_, planes_, opt_.history, opt_.slip);
-  find_stepper(key)(*this, steps);
+  law_->step(*this, steps);
 }
 
 // ---- checks and errors -------------------------------------------------------------------
@@ -395,21 +372,21 @@ void Simulation::check_initial_overlaps() const {
   for (std::size_t i = 0; i < n_; ++i) {
     for (Index e = pair_offset_[i]; e < pair_offset_[i + 1]; ++e) {
       const Index j = pair_partner_[e];
-      const double d = (vec3(x_.data(), i) - vec3(x_.data(), j)).norm();
-      const double ov = radius_[i] + radius_[j] - d;
-      if (ov > tol * std::min(radius_[i], radius_[j]))
-        throw InvalidArgument("initial overlap: spheres " + std::to_string(id_[i]) + " and " +
-                              std::to_string(id_[j]) + " overlap by " + fmt(ov) + " m (" +
-                              fmt(ov / std::min(radius_[i], radius_[j])) +
+      const double d = box_.displacement(vec3(particles_.x.data(), i), vec3(particles_.x.data(), j)).norm();
+      const double ov = particles_.radius[i] + particles_.radius[j] - d;
+      if (ov > tol * std::min(particles_.radius[i], particles_.radius[j]))
+        throw InvalidArgument("initial overlap: spheres " + std::to_string(particles_.id[i]) + " and " +
+                              std::to_string(particles_.id[j]) + " overlap by " + fmt(ov) + " m (" +
+                              fmt(ov / std::min(particles_.radius[i], particles_.radius[j])) +
                               " of the smaller radius; tolerance " + fmt(tol) + ")");
     }
     for (Index e = wall_offset_[i]; e < wall_offset_[i + 1]; ++e) {
       const Plane& p = planes_[wall_index_[e]];
-      const double ov = radius_[i] - p.normal.dot(vec3(x_.data(), i) - p.point);
-      if (ov > tol * radius_[i])
-        throw InvalidArgument("initial overlap: sphere " + std::to_string(id_[i]) + " overlaps wall " +
+      const double ov = p.overlap(vec3(particles_.x.data(), i), particles_.radius[i]);
+      if (ov > tol * particles_.radius[i])
+        throw InvalidArgument("initial overlap: sphere " + std::to_string(particles_.id[i]) + " overlaps wall " +
                               std::to_string(wall_index_[e]) + " by " + fmt(ov) + " m (" +
-                              fmt(ov / radius_[i]) + " of its radius; tolerance " + fmt(tol) + ")");
+                              fmt(ov / particles_.radius[i]) + " of its radius; tolerance " + fmt(tol) + ")");
     }
   }
 }
@@ -422,19 +399,19 @@ void Simulation::report_overlap(double dt) const {
   for (std::size_t i = 0; i < n_; ++i) {
     for (Index q = near_offset_[i]; q < near_offset_[i + 1]; ++q) {
       const Index j = near_partner_[q];
-      const double frac = pair_overlap_[q] / std::min(radius_[i], radius_[j]);
+      const double frac = pair_state_.overlap[q] / std::min(particles_.radius[i], particles_.radius[j]);
       if (frac > worst || std::isnan(frac)) {
         worst = frac;
-        who = id_[i];
-        what = "spheres " + std::to_string(id_[i]) + " and " + std::to_string(id_[j]);
+        who = particles_.id[i];
+        what = "spheres " + std::to_string(particles_.id[i]) + " and " + std::to_string(particles_.id[j]);
       }
     }
     for (Index e = wall_offset_[i]; e < wall_offset_[i + 1]; ++e) {
-      const double frac = wall_overlap_[e] / radius_[i];
+      const double frac = wall_state_.overlap[e] / particles_.radius[i];
       if (frac > worst || std::isnan(frac)) {
         worst = frac;
-        who = id_[i];
-        what = "sphere " + std::to_string(id_[i]) + " and wall " + std::to_string(wall_index_[e]);
+        who = particles_.id[i];
+        what = "sphere " + std::to_string(particles_.id[i]) + " and wall " + std::to_string(wall_index_[e]);
       }
     }
   }
@@ -453,23 +430,23 @@ void Simulation::report_nonfinite() const {
   };
   for (std::size_t i = 0; i < n_; ++i) {
     for (Index e = wall_offset_[i]; e < wall_offset_[i + 1]; ++e)
-      if (!finite_entry(wall_force_, e) || !finite_entry(wall_nxft_, e) ||
-          !finite_entry(wall_roll_, e))
+      if (!finite_entry(wall_state_.force, e) || !finite_entry(wall_state_.nxft, e) ||
+          !finite_entry(wall_state_.roll, e))
         throw InstabilityError("unstable at step " + std::to_string(step_ + 1) +
                                    ": non-finite contact force between sphere " +
-                                   std::to_string(id_[i]) + " and wall " +
+                                   std::to_string(particles_.id[i]) + " and wall " +
                                    std::to_string(wall_index_[e]) +
                                    ". The positions and velocities before this step are kept.",
-                               step_ + 1, id_[i]);
+                               step_ + 1, particles_.id[i]);
     for (Index q = near_offset_[i]; q < near_offset_[i + 1]; ++q)
-      if (!finite_entry(pair_force_, q) || !finite_entry(pair_nxft_, q) ||
-          !finite_entry(pair_roll_, q))
+      if (!finite_entry(pair_state_.force, q) || !finite_entry(pair_state_.nxft, q) ||
+          !finite_entry(pair_state_.roll, q))
         throw InstabilityError("unstable at step " + std::to_string(step_ + 1) +
                                    ": non-finite contact force between spheres " +
-                                   std::to_string(id_[i]) + " and " +
-                                   std::to_string(id_[near_partner_[q]]) +
+                                   std::to_string(particles_.id[i]) + " and " +
+                                   std::to_string(particles_.id[near_partner_[q]]) +
                                    ". The positions and velocities before this step are kept.",
-                               step_ + 1, id_[i]);
+                               step_ + 1, particles_.id[i]);
   }
   throw InstabilityError("unstable: non-finite force", step_ + 1, -1);
 }
@@ -478,14 +455,15 @@ Energy Simulation::energy_now() const {
   Energy e = energy();
   e.elastic = 0;
   if (near_offset_.size() != n_ + 1) return e;
-  const double *x = x_.data(), *v = v_.data(), *w = w_.data();
+  const CompiledLaw& law = this->law();
+  const double *x = particles_.x.data(), *v = particles_.v.data(), *w = particles_.w.data();
   // sum v.F of the conservative forces: gravity and normal springs (+), tangential springs (-).
   // For one oscillator x'' = -w^2 x stepped as v += dt F(x)/m, x += dt v, the quantity
   // 1/2 m v^2 + 1/2 k x^2 + dt/2 v.F(x) is exactly constant whatever w dt < 2 (the energy itself
   // swings by up to 1 / (1 - (w dt/2)^2) near the bound); a tangential spring, incremented with
   // the velocity before its force acts, conserves the form with the opposite sign.
   double power = 0;
-  for (std::size_t i = 0; i < n_; ++i) power += mass_[i] * opt_.gravity.dot(vec3(v, i));
+  for (std::size_t i = 0; i < n_; ++i) power += particles_.mass[i] * opt_.gravity.dot(vec3(v, i));
   // The tangential velocity of the contact points (1.12), levers c = r - overlap/2 (wall: cj = 0).
   auto slip = [&](const Vec3& n, const Vec3& vrel, const Vec3& spin_lever) {
     return Vec3(vrel - vrel.dot(n) * n - spin_lever.cross(n));
@@ -493,31 +471,31 @@ Energy Simulation::energy_now() const {
   for (std::size_t i = 0; i < n_; ++i) {
     for (Index q = near_offset_[i]; q < near_offset_[i + 1]; ++q) {
       const Index j = near_partner_[q];
-      const Vec3 d = vec3(x, i) - vec3(x, j);
+      const Vec3 d = box_.displacement(vec3(x, i), vec3(x, j));
       const double dist = d.norm();
-      const double delta = radius_[i] + radius_[j] - dist;
+      const double delta = particles_.radius[i] + particles_.radius[j] - dist;
       if (!(delta > 0)) continue;  // (an open contact holds no tangential displacement)
-      const PairParams& p = pairs_(material_[i], material_[j]);
+      const PairParams& p = pairs_(particles_.material[i], particles_.material[j]);
       const Vec3 n = d / dist, vrel = vec3(v, i) - vec3(v, j);
-      e.elastic += 0.5 * p.kn * delta * delta;
-      power += p.kn * delta * vrel.dot(n);
-      if (pair_xi_.empty()) continue;
-      const Vec3 xi = vec3(pair_xi_.data(), q);
-      e.elastic += 0.5 * p.kt * xi.squaredNorm();
-      const Vec3 lever = (radius_[i] - 0.5 * delta) * vec3(w, i) + (radius_[j] - 0.5 * delta) * vec3(w, j);
+      e.elastic += law.normal_energy(p, delta);
+      power += law.elastic_force(p, delta) * vrel.dot(n);
+      if (pair_state_.xi.empty()) continue;
+      const Vec3 xi = vec3(pair_state_.xi.data(), q);
+      e.elastic += law.tangential_energy(p, xi.data());
+      const Vec3 lever = (particles_.radius[i] - 0.5 * delta) * vec3(w, i) + (particles_.radius[j] - 0.5 * delta) * vec3(w, j);
       power += p.kt * xi.dot(slip(n, vrel, lever));
     }
     for (Index k = wall_offset_[i]; k < wall_offset_[i + 1]; ++k) {
       const Plane& P = planes_[wall_index_[k]];
-      const double delta = radius_[i] - P.normal.dot(vec3(x, i) - P.point);
+      const double delta = P.overlap(vec3(x, i), particles_.radius[i]);
       if (!(delta > 0)) continue;
-      const PairParams& p = pairs_(material_[i], P.material);
-      e.elastic += 0.5 * p.kn * delta * delta;
-      power += p.kn * delta * vec3(v, i).dot(P.normal);
-      if (wall_xi_.empty()) continue;
-      const Vec3 xi = vec3(wall_xi_.data(), k);
-      e.elastic += 0.5 * p.kt * xi.squaredNorm();
-      power += p.kt * xi.dot(slip(P.normal, vec3(v, i), (radius_[i] - 0.5 * delta) * vec3(w, i)));
+      const PairParams& p = pairs_(particles_.material[i], P.material);
+      e.elastic += law.normal_energy(p, delta);
+      power += law.elastic_force(p, delta) * vec3(v, i).dot(P.normal);
+      if (wall_state_.xi.empty()) continue;
+      const Vec3 xi = vec3(wall_state_.xi.data(), k);
+      e.elastic += law.tangential_energy(p, xi.data());
+      power += p.kt * xi.dot(slip(P.normal, vec3(v, i), (particles_.radius[i] - 0.5 * delta) * vec3(w, i)));
     }
   }
   e.step_correction = 0.5 * dt_ * power;
@@ -551,10 +529,10 @@ void Simulation::check_energy(const Energy& start) const {
 
 void Simulation::report_nonfinite_velocity() const {
   for (std::size_t k = 0; k < n_; ++k)
-    if (!finite3(v_.data() + 3 * k) || !finite3(w_.data() + 3 * k))
+    if (!finite3(particles_.v.data() + 3 * k) || !finite3(particles_.w.data() + 3 * k))
       throw InstabilityError("unstable at step " + std::to_string(step_ + 1) +
-                                 ": non-finite velocity of sphere " + std::to_string(id_[k]),
-                             step_ + 1, id_[k]);
+                                 ": non-finite velocity of sphere " + std::to_string(particles_.id[k]),
+                             step_ + 1, particles_.id[k]);
   throw InstabilityError("unstable: non-finite velocity", step_ + 1, -1);
 }
 
@@ -562,26 +540,26 @@ void Simulation::report_nonfinite_velocity() const {
 
 void Simulation::gather_by_id(const double* src, double* out) const {
   for (std::size_t k = 0; k < n_; ++k) {
-    const Id id = id_[k];
+    const Id id = particles_.id[k];
     for (int c = 0; c < 3; ++c) out[3 * id + c] = src[3 * k + c];
   }
 }
 
 void Simulation::scatter_by_id(const double* in, double* dst) {
   for (std::size_t k = 0; k < n_; ++k) {
-    const Id id = id_[k];
+    const Id id = particles_.id[k];
     require(finite3(in + 3 * id),
             [&] { return "value for sphere " + std::to_string(id) + " is not finite"; });
   }
   for (std::size_t k = 0; k < n_; ++k) {
-    const Id id = id_[k];
+    const Id id = particles_.id[k];
     for (int c = 0; c < 3; ++c) dst[3 * k + c] = in[3 * id + c];
   }
 }
 
 void Simulation::set_positions(const double* in) {
   energy_ref_valid_ = false;
-  scatter_by_id(in, x_.data());
+  scatter_by_id(in, particles_.x.data());
   list_valid_ = false;
 }
 
@@ -593,8 +571,8 @@ void Simulation::for_each_contact_sum(Out&& out) const {
     return;
   }
   const detail::ContactSums sums(*this);
-  const bool wall_lever = !wall_nxft_.empty(), pair_lever = !pair_nxft_.empty();
-  const bool rolling = !pair_roll_.empty();
+  const bool wall_lever = !wall_state_.nxft.empty(), pair_lever = !pair_state_.nxft.empty();
+  const bool rolling = !pair_state_.roll.empty();
   for (std::size_t k = 0; k < n_; ++k) {
     Vec3 F = Vec3::Zero(), T = Vec3::Zero();
     const Index i = static_cast<Index>(k);
@@ -612,26 +590,26 @@ void Simulation::for_each_contact_sum(Out&& out) const {
 
 void Simulation::get_forces(double* out) const {
   for_each_contact_sum([&](std::size_t k, const Vec3& F, const Vec3&) {
-    for (int c = 0; c < 3; ++c) out[3 * id_[k] + c] = F[c] + mass_[k] * opt_.gravity[c];
+    for (int c = 0; c < 3; ++c) out[3 * particles_.id[k] + c] = F[c] + particles_.mass[k] * opt_.gravity[c];
   });
 }
 
 void Simulation::get_torques(double* out) const {
   for_each_contact_sum([&](std::size_t k, const Vec3&, const Vec3& T) {
-    for (int c = 0; c < 3; ++c) out[3 * id_[k] + c] = T[c];
+    for (int c = 0; c < 3; ++c) out[3 * particles_.id[k] + c] = T[c];
   });
 }
 
 void Simulation::get_radii(double* out) const {
-  for (std::size_t k = 0; k < n_; ++k) out[id_[k]] = radius_[k];
+  for (std::size_t k = 0; k < n_; ++k) out[particles_.id[k]] = particles_.radius[k];
 }
 
 void Simulation::get_masses(double* out) const {
-  for (std::size_t k = 0; k < n_; ++k) out[id_[k]] = mass_[k];
+  for (std::size_t k = 0; k < n_; ++k) out[particles_.id[k]] = particles_.mass[k];
 }
 
 void Simulation::get_materials(int* out) const {
-  for (std::size_t k = 0; k < n_; ++k) out[id_[k]] = material_[k];
+  for (std::size_t k = 0; k < n_; ++k) out[particles_.id[k]] = particles_.material[k];
 }
 
 Energy Simulation::energy() const {
@@ -639,19 +617,20 @@ Energy Simulation::energy() const {
   // Serial sums in id order: the same digits whatever the thread count.
   for (Id id = 0; id < static_cast<Id>(n_); ++id) {
     const Index k = index_of_[id];
-    const double m = mass_[k];
-    e.translational += 0.5 * m * vec3(v_.data(), k).squaredNorm();
-    e.rotational += 0.5 / inv_inertia_[k] * vec3(w_.data(), k).squaredNorm();
-    e.gravitational -= m * opt_.gravity.dot(vec3(x_.data(), k));
-    e.dissipated += dissipated_[k];
+    const double m = particles_.mass[k];
+    e.translational += 0.5 * m * vec3(particles_.v.data(), k).squaredNorm();
+    e.rotational += 0.5 / particles_.inv_inertia[k] * vec3(particles_.w.data(), k).squaredNorm();
+    e.gravitational -= m * opt_.gravity.dot(vec3(particles_.x.data(), k));
+    e.dissipated += particles_.dissipated[k];
   }
   if (!ran_) return e;
+  const CompiledLaw& law = this->law();
   for (const ContactInfo& c : contacts()) {
-    const int mi = material_[index_of_[c.i]];
-    const int mj = c.wall >= 0 ? planes_[c.wall].material : material_[index_of_[c.j]];
+    const int mi = particles_.material[index_of_[c.i]];
+    const int mj = c.wall >= 0 ? planes_[c.wall].material : particles_.material[index_of_[c.j]];
     const PairParams& p = pairs_(mi, mj);
-    e.elastic += 0.5 * p.kn * c.overlap * c.overlap;
-    e.elastic += 0.5 * p.kt * c.tangential_displacement.squaredNorm();
+    e.elastic += law.normal_energy(p, c.overlap);
+    e.elastic += law.tangential_energy(p, c.tangential_displacement.data());
   }
   return e;
 }
@@ -671,17 +650,17 @@ std::vector<ContactInfo> Simulation::contacts() const {
   };
   for (std::size_t i = 0; i < n_; ++i) {
     for (Index e = near_offset_[i]; e < near_offset_[i + 1]; ++e) {
-      if (!(pair_overlap_[e] > 0)) continue;
-      out.push_back({id_[i], id_[near_partner_[e]], -1, pair_overlap_[e],
-                     vec3(pair_force_.data(), e),
-                     torque(pair_nxft_, pair_roll_, radius_[i], pair_overlap_[e], e),
-                     history(pair_xi_, e)});
+      if (!(pair_state_.overlap[e] > 0)) continue;
+      out.push_back({particles_.id[i], particles_.id[near_partner_[e]], -1, pair_state_.overlap[e],
+                     vec3(pair_state_.force.data(), e),
+                     torque(pair_state_.nxft, pair_state_.roll, particles_.radius[i], pair_state_.overlap[e], e),
+                     history(pair_state_.xi, e)});
     }
     for (Index e = wall_offset_[i]; e < wall_offset_[i + 1]; ++e) {
-      if (!(wall_overlap_[e] > 0)) continue;
-      out.push_back({id_[i], -1, wall_index_[e], wall_overlap_[e], vec3(wall_force_.data(), e),
-                     torque(wall_nxft_, wall_roll_, radius_[i], wall_overlap_[e], e),
-                     history(wall_xi_, e)});
+      if (!(wall_state_.overlap[e] > 0)) continue;
+      out.push_back({particles_.id[i], -1, wall_index_[e], wall_state_.overlap[e], vec3(wall_state_.force.data(), e),
+                     torque(wall_state_.nxft, wall_state_.roll, particles_.radius[i], wall_state_.overlap[e], e),
+                     history(wall_state_.xi, e)});
     }
   }
   std::sort(out.begin(), out.end(), [](const ContactInfo& a, const ContactInfo& b) {
@@ -698,17 +677,14 @@ std::vector<std::pair<std::string, std::size_t>> Simulation::memory_bytes() cons
   for (std::size_t k = 0; k < kEntryArrays; ++k)
     old_state += bytes(old_pair_state_[k]) + bytes(old_wall_state_[k]);
   return {
-      {"particles", bytes(x_, v_, w_, radius_, mass_, inv_mass_, inv_inertia_, dissipated_,
-                          material_, id_, index_of_, busy_, loaded_, sum_offset_)},
+      {"particles", particles_.bytes() + bytes(index_of_, busy_, loaded_, sum_offset_)},
       {"verlet list", bytes(pair_offset_, pair_partner_)},
       {"near list", bytes(near_offset_, near_owner_, near_partner_, near_rev_offset_, near_rev_,
-                          near_cut2_, near_eta_, pair_xi_, pair_force_, pair_nxft_, pair_roll_,
-                          pair_overlap_, pair_touch_, pair_rough_, sum_entry_)},
-      {"walls", bytes(wall_offset_, wall_index_, wall_owner_, wall_near_offset_, wall_near_,
-                      wall_xi_, wall_force_, wall_nxft_, wall_roll_, wall_overlap_, wall_touch_,
-                      wall_rough_)},
-      {"scratch", bytes(cell_start_, cell_of_, perm_, old_index_of_, active_,
-                        old_near_offset_,
+                          near_cut2_, near_eta_, sum_entry_) +
+                        pair_state_.bytes()},
+      {"walls", bytes(wall_offset_, wall_index_, wall_owner_, wall_near_offset_, wall_near_) +
+                    wall_state_.bytes()},
+      {"scratch", bytes(cell_start_, cell_of_, perm_, old_index_of_, active_, old_near_offset_,
                         old_wall_offset_, old_wall_index_, old_near_partner_id_, scratch_,
                         scratch_int_) +
                       old_state},

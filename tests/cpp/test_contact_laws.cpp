@@ -50,10 +50,11 @@ void test_normal() {
   const double m = 1e-6;
   const double le = std::log(0.5);
   const double eta = -2 * le * std::sqrt(m * p.kn / (M_PI * M_PI + le * le));  // (B.9)
-  CHECK_CLOSE(HookeNormal::damping(p, m), eta, 1e-15);
+  CHECK_CLOSE(RestitutionDamping::coefficient(p, m, HookeNormal::stiffness(p)), eta, 1e-15);
   const ContactGeometry g = touching(1e-6, -0.1, Vec3::Zero());
   CHECK_CLOSE(HookeNormal::force(g, p, eta), p.kn * 1e-6 + eta * 0.1, 1e-15);  // (1.6)
-  CHECK_CLOSE(HookeNormal::damping(params(1.0), m), 0.0, 0.0);                 // e = 1: no dashpot
+  const PairParams elastic = params(1.0);
+  CHECK_CLOSE(RestitutionDamping::coefficient(elastic, m, elastic.kn), 0.0, 0.0);  // e = 1: no dashpot
 }
 
 void test_tangential_stick_and_slip() {
@@ -129,11 +130,12 @@ void test_rolling_cap() {
 
 void test_law_combination() {
   const PairParams p = params(0.5, 0.5);
-  using Frictionless = ContactLaw<NoTangential, NoRolling>;
+  using Frictionless = ContactLaw<HookeNormal, RestitutionDamping, NoTangential, NoRolling, NoRoughness>;
   static_assert(!Frictionless::has_history && !Frictionless::has_torque);
-  static_assert(ContactLaw<TangentialRotate, NoRolling>::has_history);
+  static_assert(
+      ContactLaw<HookeNormal, RestitutionDamping, TangentialRotate, NoRolling, NoRoughness>::has_history);
   ContactGeometry g = touching(1e-6, -0.01, Vec3(1e-3, 0, 0));
-  g.eta_n = HookeNormal::damping(p, g.m_eff);
+  g.eta_n = Frictionless::damping_coefficient(p, g.m_eff);
   Frictionless::History none;
   ContactResult res;
   Frictionless::evaluate(g, p, 1e-6, none, res);

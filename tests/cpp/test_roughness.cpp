@@ -4,6 +4,7 @@
 
 #include "check.hpp"
 #include "tsubu/contact/roughness.hpp"
+#include "tsubu/material.hpp"
 
 using namespace tsubu;
 

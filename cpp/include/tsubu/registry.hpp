@@ -1,24 +1,73 @@
-// The one place where a scene's run-time features pick a compiled specialisation of the loop.
+// The one place where a scene's run-time choices pick a compiled specialisation of the loop.
+//
+// Each slot of the contact law has a list of evaluators (below). registry.cpp instantiates the
+// loop for every combination, from these lists, and a LawKey (one index per slot) finds it.
+// Adding a law: write its evaluator in contact/, append it to its slot's list, and teach
+// Simulation::law_key() when a scene wants it. Wall motion is not a slot: a run checks it per
+// wall contact (the branch costs nothing measurable, docs/architecture.md), which halves the
+// number of instantiations.
 #pragma once
+#include <cstddef>
 #include <string>
+#include <tuple>
+#include <type_traits>
+
+#include "contact/damping.hpp"
+#include "contact/normal.hpp"
+#include "contact/rolling.hpp"
+#include "contact/roughness.hpp"
+#include "contact/tangential.hpp"
+#include "material.hpp"
 
 namespace tsubu {
 
 class Simulation;
 
-enum class TangentialKind { None = 0, Rotate = 1, Literal = 2, RotateTruncate = 3 };
+template <class... T>
+struct TypeList {
+  static constexpr std::size_t size = sizeof...(T);
+  template <std::size_t I>
+  using at = std::tuple_element_t<I, std::tuple<T...>>;
+  // The position of U in the list.
+  template <class U>
+  static constexpr std::size_t index_of() {
+    std::size_t i = 0, found = size;
+    ((std::is_same_v<U, T> ? (found = i, ++i) : ++i), ...);
+    return found;
+  }
+};
 
-// The features a scene uses, decided once when a run starts.
+// The evaluators each slot can hold (contact/*.hpp).
+using NormalLaws = TypeList<HookeNormal>;
+using DampingLaws = TypeList<RestitutionDamping>;
+using TangentialLaws =
+    TypeList<NoTangential, TangentialRotate, TangentialLiteral, TangentialRotateTruncate>;
+using RollingLaws = TypeList<NoRolling, RollingFriction>;
+using RoughnessLaws = TypeList<NoRoughness, StochasticRoughness>;
+
+// A scene's choice: one index per slot, into the lists above.
 struct LawKey {
-  TangentialKind tangential = TangentialKind::None;
-  bool rolling = false;
-  bool moving_walls = false;
-  bool roughness = false;
+  std::size_t normal = 0, damping = 0, tangential = 0, rolling = 0, roughness = 0;
 };
 
 using StepFunction = void (*)(Simulation&, long steps);
 
-StepFunction find_stepper(const LawKey& key);
-std::string law_name(const LawKey& key);  // e.g. "hooke+rotate+rolling+moving-walls"
+// One instantiated law, and what the rest of the engine asks of it without knowing its type.
+struct CompiledLaw {
+  StepFunction step;
+  std::string (*name)();
+  double (*critical_time_step)(const PairParams&, double m_eff);
+  double (*contact_duration)(const PairParams&, double m_eff);
+  double (*damping_coefficient)(const PairParams&, double m_eff);
+  double (*normal_energy)(const PairParams&, double overlap);
+  double (*elastic_force)(const PairParams&, double overlap);  // the normal spring's, no dashpot
+  double (*tangential_energy)(const PairParams&, const double* history);
+  int history_width, rough_width;
+  bool torque, rolling;
+};
+
+const CompiledLaw& find_law(const LawKey& key);
+// How many specialisations the library holds.
+std::size_t compiled_law_count();
 
 }  // namespace tsubu

@@ -9,13 +9,17 @@
 #include <utility>
 #include <vector>
 
+#include "box.hpp"
 #include "material.hpp"
 #include "memory.hpp"
+#include "registry.hpp"
+#include "state.hpp"
 #include "types.hpp"
+#include "walls/plane.hpp"
 
 namespace tsubu {
 
-// How the stored tangential displacement follows the contact (DESIGN.md note 3).
+// How the stored tangential displacement follows the contact (docs/physics.md).
 enum class HistoryRule { Rotate = 0, Literal = 1 };
 // What a slipping contact does (docs/physics.md): the notes' (1.17)-(1.18), force mu |f_n|
 // against the slip velocity with the displacement frozen; or LAMMPS's, the spring force scaled
@@ -37,18 +41,6 @@ struct Options {
   bool allow_unstable_dt = false;    // run with dt above critical_time_step()
   bool rebuild_every_step = false;   // testing aid: rebuild the neighbour list every step
   std::uint64_t seed = 0;            // seed of the roughness draws (reproducible per contact)
-};
-
-// A plane wall a x + b y + c z + d = 0 (3.1-3.2), stored as a point and a unit normal pointing to
-// the side where spheres live. It translates with `velocity` and rotates with `angular_velocity`
-// about `point`; the wall's velocity at a contact point enters the relative velocity.
-struct Plane {
-  Vec3 point = Vec3::Zero();
-  Vec3 normal = Vec3(0, 0, 1);
-  Vec3 velocity = Vec3::Zero();
-  Vec3 angular_velocity = Vec3::Zero();
-  int material = 0;
-  bool moving() const { return velocity.squaredNorm() > 0 || angular_velocity.squaredNorm() > 0; }
 };
 
 struct Energy {
@@ -79,9 +71,11 @@ enum class Phase { Neighbors = 0, Contacts, Integrate, Count };
 const char* phase_name(Phase p);
 
 namespace detail {
-template <class Law, bool MovingWalls>
+template <class Law>
 struct Stepper;
 struct ContactSums;
+struct ContactView;
+struct ParticleView;
 }
 
 // Adds the time since the previous lap to the named phase (steady clock, ~20 ns a lap).
@@ -153,9 +147,9 @@ class Simulation {
 
   // ---- state, in id order ------------------------------------------------------------------
   std::size_t size() const { return n_; }
-  void get_positions(double* out) const { gather_by_id(x_.data(), out); }
-  void get_velocities(double* out) const { gather_by_id(v_.data(), out); }
-  void get_angular_velocities(double* out) const { gather_by_id(w_.data(), out); }
+  void get_positions(double* out) const { gather_by_id(particles_.x.data(), out); }
+  void get_velocities(double* out) const { gather_by_id(particles_.v.data(), out); }
+  void get_angular_velocities(double* out) const { gather_by_id(particles_.w.data(), out); }
   void get_forces(double* out) const;   // contact forces + m g of the last step
   void get_torques(double* out) const;  // contact torques of the last step
   void get_radii(double* out) const;
@@ -163,11 +157,11 @@ class Simulation {
   void get_materials(int* out) const;
   void set_positions(const double* in);
   void set_velocities(const double* in) {
-    scatter_by_id(in, v_.data());
+    scatter_by_id(in, particles_.v.data());
     energy_ref_valid_ = false;
   }
   void set_angular_velocities(const double* in) {
-    scatter_by_id(in, w_.data());
+    scatter_by_id(in, particles_.w.data());
     energy_ref_valid_ = false;
   }
 
@@ -194,9 +188,11 @@ class Simulation {
   double skin() const;
 
  private:
-  template <class Law, bool MovingWalls>
+  template <class Law>
   friend struct detail::Stepper;
   friend struct detail::ContactSums;
+  friend struct detail::ContactView;
+  friend struct detail::ParticleView;
 
   void gather_by_id(const double* src, double* out) const;
   template <class Out>
@@ -207,6 +203,11 @@ class Simulation {
   void check_initial_overlaps() const;
   bool needs_rebuild() const;
   void move_planes(double dt);
+  // The compiled law this scene's pairs and options select (registry.hpp).
+  LawKey law_key() const;
+  // Mixed parameters of every material pair, overrides applied (the table a run uses).
+  PairTable mixed_pairs() const;
+  bool walls_move() const;
   [[noreturn]] void report_overlap(double dt) const;
   [[noreturn]] void report_nonfinite() const;
   [[noreturn]] void report_nonfinite_velocity() const;
@@ -227,13 +228,12 @@ class Simulation {
   std::vector<PairParams> overrides_;
   std::vector<Plane> planes_;
 
+  Box box_;
+
   // Particles (internal order).
   std::size_t n_ = 0;
-  Array<double> x_, v_, w_;
-  Array<double> radius_, mass_, inv_mass_, inv_inertia_, dissipated_;
-  Array<int> material_;
+  ParticleStore particles_;
   int sphere_material_ = -1;  // the one material of all spheres, else -1 (set when a run starts)
-  Array<Id> id_;
   Array<Index> index_of_;  // id -> internal index
 
   // Two-level neighbour list (docs/architecture.md). The Verlet list holds every pair within
@@ -246,7 +246,9 @@ class Simulation {
   Array<Index> pair_offset_, pair_partner_;
   Array<Index> near_offset_, near_owner_, near_partner_, near_rev_offset_, near_rev_;
   Array<double> near_cut2_;  // (r_i + r_j)^2
-  Array<double> near_eta_;   // normal dashpot of the pair (B.9): a sqrt saved per contact
+  // The normal dashpot of each near pair, where the damping law's coefficient does not depend on
+  // the overlap (RestitutionDamping::kPerEntry): a square root saved per contact and step.
+  Array<double> near_eta_;
   // Particles with near-pair or near-wall entries: the only ones whose contacts can be summed;
   // and, per step, 1 for those with an entry in contact (set by the contact pass, cleared by
   // the particle pass).
@@ -266,14 +268,10 @@ class Simulation {
   // moves), refreshed with the near list: wall_near_ (entry indices, by particle).
   Array<Index> wall_offset_, wall_index_, wall_owner_, wall_near_offset_, wall_near_;
   // Per-entry contact state: history (tangential displacement), overlap, and the results of the
-  // last evaluation (force on the owner, n x F_t, rolling vector); zero while not touching.
-  Array<double> pair_xi_, pair_force_, pair_nxft_, pair_roll_, pair_overlap_;
-  Array<double> wall_xi_, wall_force_, wall_nxft_, wall_roll_, wall_overlap_;
-  // 1 while an entry's spheres touch (same as overlap > 0; a byte is 8x cheaper to stream).
-  Array<std::uint8_t> pair_touch_, wall_touch_;
-  // Roughness state per entry (6 values, step.hpp): tilt or tilted normal, facet offset,
-  // first-touch step, spin term.
-  Array<double> pair_rough_, wall_rough_;
+  // last evaluation (force on the owner, n x F_t, rolling vector), roughness; zero while not
+  // touching. Arrays a law does not use are empty (shape_).
+  EntryStore pair_state_, wall_state_;
+  EntryShape pair_shape_, wall_shape_;
   // Neighbour-list bookkeeping: bounds on the distance any particle moved since the last Verlet
   // rebuild and since the last near-list refresh (sums of dt max|v| over the steps).
   bool list_valid_ = false;
@@ -287,13 +285,9 @@ class Simulation {
   Array<Index> cell_start_, cell_of_, perm_, old_index_of_, active_;
   Array<Index> old_near_offset_, old_wall_offset_, old_wall_index_;
   Array<Id> old_near_partner_id_;
-  // Per-entry state carried across refreshes: history, overlap, force, n x F, rolling vector,
-  // roughness. The near list's is stashed compactly (touching entries only, rows by owner in
-  // old_near_offset_), the walls' whole.
-  static constexpr std::size_t kEntryArrays = 6;
-  static constexpr std::size_t kEntryWidth[kEntryArrays] = {3, 1, 3, 3, 3, 6};
-  Array<double>* pair_state(std::size_t k);
-  Array<double>* wall_state(std::size_t k);
+  // Per-entry state carried across refreshes (EntryStore::carried). The near list's is stashed
+  // compactly (touching entries only, rows by owner in old_near_offset_), the walls' whole.
+  static constexpr std::size_t kEntryArrays = EntryStore::kFields;
   std::array<Array<double>, kEntryArrays> old_pair_state_, old_wall_state_;
   Array<std::uint8_t> old_touch_;
   Array<double> scratch_;
@@ -304,9 +298,9 @@ class Simulation {
   double time_ = 0;
   bool ran_ = false;
   double dt_ = 0;
-  bool has_history_ = false;  // the law of the current run keeps a tangential displacement
-  bool has_rolling_ = false;
-  bool has_rough_ = false;
+  const CompiledLaw* law_ = nullptr;  // the law of the last run (prepare_run)
+  // The law of the last run, or, before any, the one the scene selects now.
+  const CompiledLaw& law() const { return law_ ? *law_ : find_law(law_key()); }
   // The energy balance the check compares with: taken when a run starts after anything that
   // changes the scene's energy from outside (state set, spheres or walls added, a wall set
   // moving, gravity or pair parameters changed), so that chunked runs are checked as one.
@@ -332,9 +326,11 @@ class Simulation {
   void measure_near();
   // near_eta_ from the current pair table (after a refresh, or when parameters change).
   void cache_near_terms();
-  // The energy a contact loses when it opens (its tangential spring; step.hpp releases).
+  // The energy a contact loses when it opens (its tangential spring; the engine releases).
   double spring_energy(int material_a, int material_b, const Array<double>& xi,
                        std::size_t e) const;
+  // The key under which a near-wall entry's state is found again after a rebuild.
+  WallKey wall_key(Index entry) const { return {wall_index_[entry], 0}; }
   void size_entry_buffers();
   void sort_by_cell(double cell_size, const Vec3& lo, const std::array<long, 3>& dims);
 };
@@ -350,11 +346,13 @@ struct ContactSums {
   const double *r, *wf, *wn, *wr, *wo, *pf, *pn, *pr, *po;
 
   explicit ContactSums(const Simulation& s)
-      : woff(s.wall_near_offset_.data()), wnear(s.wall_near_.data()), noff(s.near_offset_.data()), roff(s.near_rev_offset_.data()),
-        rev(s.near_rev_.data()), r(s.radius_.data()), wf(s.wall_force_.data()),
-        wn(s.wall_nxft_.data()), wr(s.wall_roll_.data()), wo(s.wall_overlap_.data()),
-        pf(s.pair_force_.data()), pn(s.pair_nxft_.data()), pr(s.pair_roll_.data()),
-        po(s.pair_overlap_.data()) {}
+      : woff(s.wall_near_offset_.data()), wnear(s.wall_near_.data()),
+        noff(s.near_offset_.data()), roff(s.near_rev_offset_.data()), rev(s.near_rev_.data()),
+        r(s.particles_.radius.data()), wf(s.wall_state_.force.data()),
+        wn(s.wall_state_.nxft.data()), wr(s.wall_state_.roll.data()),
+        wo(s.wall_state_.overlap.data()), pf(s.pair_state_.force.data()),
+        pn(s.pair_state_.nxft.data()), pr(s.pair_state_.roll.data()),
+        po(s.pair_state_.overlap.data()) {}
 
   // Requests particle k's offsets and velocities ahead of at(k).
   void prefetch(Index k, const double* v, const double* w) const {

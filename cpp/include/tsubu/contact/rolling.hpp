@@ -3,14 +3,23 @@
 #include <algorithm>
 #include <cmath>
 
-#include "../material.hpp"
 #include "geometry.hpp"
 
 namespace tsubu {
 
+struct RollingParams {
+  double rolling_friction = 0;  // mu_r of (1.20), dimensionless
+
+  template <class M>
+  static void mix(const M& a, const M& b, RollingParams& p) {
+    p.rolling_friction = std::sqrt(a.rolling_friction * b.rolling_friction);  // geometric mean
+  }
+  static bool used(const RollingParams& p) { return p.rolling_friction > 0; }
+};
+
 struct NoRolling {
   static constexpr bool enabled = false;
-  static constexpr const char* name = "none";
+  static constexpr const char* name = "";
 };
 
 struct RollingFriction {
@@ -19,7 +28,7 @@ struct RollingFriction {
 
   // Returns R with M_ij = r_i R and M_ji = -r_j R. Its size is capped so that, alone, it at most
   // stops the relative spin within this step and never reverses it.
-  TSUBU_INLINE static Vec3 evaluate(const ContactGeometry& g, const PairParams& p, double fn_abs, double dt) {
+  TSUBU_INLINE static Vec3 evaluate(const ContactGeometry& g, const RollingParams& p, double fn_abs, double dt) {
     const double w = g.w_rel.norm();
     if (w == 0 || p.rolling_friction == 0) return Vec3::Zero();
     const double q = std::min(p.rolling_friction * fn_abs, w / (dt * g.spin_mobility));

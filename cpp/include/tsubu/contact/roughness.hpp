@@ -1,4 +1,4 @@
-// Stochastic surface roughness (surface_roughness_model.md, eqs. 9-12; Sommerfeld 1992,
+// Stochastic surface roughness (the roughness seed note, eqs. 9-12; Sommerfeld 1992,
 // Sommerfeld & Huber 1999): at first touch the contact normal n is tilted by a random scatter
 // angle dG towards a random azimuth psi; the tilt is kept for the life of the contact.
 //
@@ -10,10 +10,50 @@
 #include <cmath>
 #include <cstdint>
 
-#include "../material.hpp"
 #include "../types.hpp"
 
 namespace tsubu {
+
+// Distribution of the roughness scatter angle dG (docs/roughness.md).
+enum class ScatterDistribution { Normal = 0, Uniform = 1 };
+// Shadow effect at walls: which tilts a sphere can meet (docs/roughness.md).
+enum class ShadowRule { Reject = 0, Weighted = 1, None = 2 };
+
+struct RoughnessParams {
+  double roughness = 0;  // standard deviation of the scatter angle dG, radians
+  ScatterDistribution roughness_distribution = ScatterDistribution::Normal;
+  ShadowRule shadow = ShadowRule::Reject;
+
+  // The scatter of two independent surfaces adds in quadrature; the distribution and shadow
+  // rule are those of the rougher material.
+  template <class M>
+  static void mix(const M& a, const M& b, RoughnessParams& p) {
+    p.roughness = std::hypot(a.roughness, b.roughness);
+    const M& rougher = b.roughness > a.roughness ? b : a;
+    p.roughness_distribution = rougher.roughness_distribution;
+    p.shadow = rougher.shadow;
+  }
+  static bool used(const RoughnessParams& p) { return p.roughness > 0; }
+  // The largest sigma the distribution allows: |dG| < 90 degrees (uniform: sqrt(3) sigma < 90).
+  static double limit(ScatterDistribution d) {
+    return d == ScatterDistribution::Uniform ? 0.5 * M_PI / std::sqrt(3.0) : 0.5 * M_PI;
+  }
+};
+
+// Smooth surfaces: the contact normal is the line of centres (or the wall's normal).
+struct NoRoughness {
+  static constexpr bool enabled = false;
+  static constexpr const char* name = "";
+  static constexpr int state_width = 0;
+};
+// Stochastic roughness: the normal is tilted by a random angle at first touch (engine/rough.hpp
+// applies it). Per entry: walls: tilt vector (3), facet offset h, first-touch step; pairs:
+// tilted normal n' (3; zero once enduring), facet offset H, first-touch step, spin term S.
+struct StochasticRoughness {
+  static constexpr bool enabled = true;
+  static constexpr const char* name = "roughness";
+  static constexpr int state_width = 6;
+};
 
 // Philox4x32 with 10 rounds: 4 x 32 random bits per (counter, key).
 inline std::array<std::uint32_t, 4> philox4x32(std::array<std::uint32_t, 4> c,
@@ -89,7 +129,7 @@ inline Vec3 tilt_vector(const Vec3& n, double scatter, double azimuth) {
 // "weighted" accepts a tilt with probability sin(gamma'), gamma' the incidence on the tilted
 // plane (Sommerfeld & Huber 1999); "none" takes every draw. Draws with |dG| >= 90 degrees are
 // redrawn. After 64 refused attempts the contact is smooth (tilt 0).
-inline Vec3 draw_tilt(const PairParams& p, const Vec3& n, const Vec3& v, bool wall,
+inline Vec3 draw_tilt(const RoughnessParams& p, const Vec3& n, const Vec3& v, bool wall,
                       const ContactStream& stream) {
   const double speed = v.norm();
   for (std::uint32_t attempt = 0; attempt < 64; ++attempt) {

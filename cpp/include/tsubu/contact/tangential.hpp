@@ -4,24 +4,62 @@
 #include <algorithm>
 #include <cmath>
 
-#include "../material.hpp"
 #include "geometry.hpp"
 
 namespace tsubu {
 
+// The parameters of the tangential spring-dashpot with the Coulomb cap, and their mixing rule:
+// stiffnesses as two half-springs in series (harmonic mean), the coefficients geometric means.
+struct FrictionParams {
+  double kt = 0;                  // tangential stiffness, N/m
+  double friction = 0;            // Coulomb mu (1.17)
+  double tangential_damping = 0;  // eta_t / eta_n (1.11)
+
+  template <class M>
+  static void mix(const M& a, const M& b, FrictionParams& p) {
+    p.kt = (a.kt == 0 || b.kt == 0) ? 0.0 : 2.0 * a.kt * b.kt / (a.kt + b.kt);
+    p.friction = std::sqrt(a.friction * b.friction);
+    p.tangential_damping = std::sqrt(a.tangential_damping * b.tangential_damping);
+  }
+  // A scene whose pairs all have mu = 0 or kt = 0 runs without tangential code.
+  static bool used(const FrictionParams& p) { return p.friction > 0 && p.kt > 0; }
+};
+
 // Frictionless contacts: no tangential force, no history, no angular-velocity reads.
 struct NoTangential {
   static constexpr bool enabled = false;
-  static constexpr const char* name = "none";
+  static constexpr const char* name = "frictionless";
+  static constexpr int history_width = 0;
+  static constexpr int kLaneParams = 0;
   struct History {};
+  static void pack(const FrictionParams&, double*) {}
+  static double elastic_energy(const double*, const double*) { return 0; }
+};
+
+// What every law with a tangential spring shares: three lane parameters (kt, mu, eta_t/eta_n)
+// and a 3-vector of history, the displacement xi, holding 1/2 kt |xi|^2.
+struct TangentialSpring {
+  static constexpr bool enabled = true;
+  static constexpr int history_width = 3;
+  static constexpr int kLaneParams = 3;
+  struct History { double xi[3]; };
+  static void pack(const FrictionParams& p, double* q) {
+    q[0] = p.kt;
+    q[1] = p.friction;
+    q[2] = p.tangential_damping;
+  }
+  // The energy of the spring with displacement xi; q as packed.
+  static double elastic_energy(const double* q, const double* xi) {
+    return 0.5 * q[0] * (xi[0] * xi[0] + xi[1] * xi[1] + xi[2] * xi[2]);
+  }
 };
 
 namespace detail {
 // Coulomb cap (1.17)-(1.18) shared by the history laws, branch-free (both outcomes are computed
 // and one is kept, so that a block of contacts vectorises). `trial` holds the displacement with
 // this step's increment; `frozen` the displacement without it. When the trial force exceeds
-// mu |f_n| the contact slips: the force is mu |f_n| along -t, t = v_t/|v_t| (DESIGN.md note 1:
-// |f_n|, not |f_t|), and the displacement stays frozen (1.18). Returns F_t; sets xi.
+// mu |f_n| the contact slips: the force is mu |f_n| along -t, t = v_t/|v_t| (|f_n|, not
+// the |f_t| of the notes' (1.17), docs/physics.md), and the displacement stays frozen (1.18). Returns F_t; sets xi.
 template <bool kTruncate = false>
 TSUBU_INLINE L3 coulomb(L3 vt, double kt, double eta_t, double cap, double dt, L3 trial, L3 frozen,
                         L3& xi, double& power) {
@@ -30,7 +68,7 @@ TSUBU_INLINE L3 coulomb(L3 vt, double kt, double eta_t, double cap, double dt, L
   const bool slip = ft2 > cap * cap;
   const double stick_power = eta_t * dot(vt, vt);
   if constexpr (kTruncate) {
-    // The rule of LAMMPS (gran/hooke/history) and SCENE.md: the trial force is scaled down to
+    // The rule of LAMMPS's gran/hooke/history and of the shared reference scene: the trial force is scaled down to
     // the cap in its own direction, and the displacement truncated to match.
     // (Divisions are the lane's slowest operations: one reciprocal each for kt and dt.)
     const L3 fs = (cap / std::sqrt(ft2)) * ft;
@@ -53,7 +91,7 @@ TSUBU_INLINE L3 coulomb(L3 vt, double kt, double eta_t, double cap, double dt, L
 
 // The Eigen form of a tangential law's lane (single contacts, tests): F_t, with h.xi updated.
 template <class Law>
-TSUBU_INLINE Vec3 tangential(const ContactGeometry& g, const PairParams& p, double eta_t,
+TSUBU_INLINE Vec3 tangential(const ContactGeometry& g, const FrictionParams& p, double eta_t,
                              double fn_abs, double dt, typename Law::History& h, double& power) {
   L3 xi{h.xi[0], h.xi[1], h.xi[2]};
   const L3 ft = Law::lane(lanes(g.n), lanes(g.vt), p.kt, eta_t, p.friction * fn_abs, dt, xi, power);
@@ -64,14 +102,12 @@ TSUBU_INLINE Vec3 tangential(const ContactGeometry& g, const PairParams& p, doub
 }
 }  // namespace detail
 
-// Default rule (DESIGN.md note 3): the stored displacement is a vector, rotated into the current
+// Default rule (docs/physics.md): the stored displacement is a vector, rotated into the current
 // tangent plane each step with its length kept, then incremented by v_t dt. kTruncate selects
 // the slip rule: false, the notes' (1.17)-(1.18) (default); true, LAMMPS's (for comparisons).
 template <bool kTruncate>
-struct TangentialRotateRule {
-  static constexpr bool enabled = true;
-  static constexpr const char* name = kTruncate ? "rotate, truncate" : "rotate";
-  struct History { double xi[3]; };
+struct TangentialRotateRule : TangentialSpring {
+  static constexpr const char* name = kTruncate ? "friction(rotate, truncate)" : "friction(rotate)";
 
   // One contact: normal n, tangential velocity vt, cap mu |f_n|; returns F_t, updates xi.
   TSUBU_INLINE static L3 lane(L3 n, L3 vt, double kt, double eta_t, double cap, double dt, L3& xi,
@@ -90,7 +126,7 @@ struct TangentialRotateRule {
     const L3 trial = mul_add(dt, vt, rot);  // (1.13) one step
     return detail::coulomb<kTruncate>(vt, kt, eta_t, cap, dt, trial, rot, xi, power);
   }
-  TSUBU_INLINE static Vec3 evaluate(const ContactGeometry& g, const PairParams& p, double eta_t,
+  TSUBU_INLINE static Vec3 evaluate(const ContactGeometry& g, const FrictionParams& p, double eta_t,
                                     double fn_abs, double dt, History& h, double& power) {
     return detail::tangential<TangentialRotateRule>(g, p, eta_t, fn_abs, dt, h, power);
   }
@@ -101,10 +137,8 @@ using TangentialRotateTruncate = TangentialRotateRule<true>;
 // The notes' literal rule (1.14)-(1.16): the whole accumulated length is re-aimed along the
 // current t = v_t/|v_t| and grows by |v_t| dt; unchanged when v_t = 0. Kept for comparison only:
 // its spring never unloads (docs/physics.md shows the difference).
-struct TangentialLiteral {
-  static constexpr bool enabled = true;
-  static constexpr const char* name = "literal";
-  struct History { double xi[3]; };
+struct TangentialLiteral : TangentialSpring {
+  static constexpr const char* name = "friction(literal)";
 
   TSUBU_INLINE static L3 lane(L3, L3 vt, double kt, double eta_t, double cap, double dt, L3& xi,
                               double& power) {
@@ -114,7 +148,7 @@ struct TangentialLiteral {
         select(vt_abs > 0, ((std::sqrt(dot(old, old)) + vt_abs * dt) / vt_abs) * vt, old);  // (1.14), (1.16)
     return detail::coulomb(vt, kt, eta_t, cap, dt, trial, old, xi, power);
   }
-  TSUBU_INLINE static Vec3 evaluate(const ContactGeometry& g, const PairParams& p, double eta_t,
+  TSUBU_INLINE static Vec3 evaluate(const ContactGeometry& g, const FrictionParams& p, double eta_t,
                                     double fn_abs, double dt, History& h, double& power) {
     return detail::tangential<TangentialLiteral>(g, p, eta_t, fn_abs, dt, h, power);
   }

@@ -1,0 +1,237 @@
+// Blocked evaluation, for laws without rolling friction or roughness: a gather loop reads each
+// kept contact's geometry, velocities, parameters and history into a structure of arrays; one
+// loop runs the law's lane form over the block, which the compiler vectorises (AVX2: 4 contacts
+// at a time); a store loop writes the results back. The arithmetic is that of contact.hpp's
+// single contacts, in the same order, so are the bits.
+#pragma once
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+
+#include "contact.hpp"
+
+namespace tsubu::detail {
+
+constexpr int kBlock = 64;
+
+// The pair entries of a chunk that are in contact or were last step, as the scan keeps them:
+// entry, x_i - x_j, its squared length and 1/|x_ij|.
+struct Scan {
+  Index act[kBlock];
+  double dx[kBlock], dy[kBlock], dz[kBlock], d2[kBlock], inv[kBlock];
+};
+
+template <class Law>
+struct Blocked {
+  using F = Features<Law>;
+  using C = Contacts<Law>;
+  static constexpr int kParams = Law::kLaneParams;
+  static constexpr int kHistory = Law::history_width;
+
+  struct alignas(64) Block {
+    // Walls: normal, tangential and normal velocity. Pairs: relative velocity and the spins'
+    // part (the rest of the geometry is the scan's), turned into n, v_t and v_n by the
+    // vectorised loop.
+    double nx[kBlock], ny[kBlock], nz[kBlock], vtx[kBlock], vty[kBlock], vtz[kBlock], vn[kBlock];
+    double vrx[kBlock], vry[kBlock], vrz[kBlock], spx[kBlock], spy[kBlock], spz[kBlock];
+    double delta[kBlock], eta[kBlock];
+    double param[kParams][kBlock];  // the law's packed pair parameters, one column each
+    double xix[kBlock], xiy[kBlock], xiz[kBlock];
+    double fx[kBlock], fy[kBlock], fz[kBlock], tx[kBlock], ty[kBlock], tz[kBlock], power[kBlock];
+    bool inside[kBlock];
+
+    // One material for all spheres: the parameter lanes are filled once, not per contact.
+    explicit Block(const PairParams* same) {
+      // Zeros, so that the lanes past a block's end (evaluate) hold finite values.
+      std::memset(static_cast<void*>(this), 0, sizeof *this);
+      if (!same) return;
+      double q[kParams];
+      Law::pack(*same, q);
+      for (int k = 0; k < kParams; ++k) std::fill(param[k], param[k] + kBlock, q[k]);
+    }
+    void put_params(int a, const PairParams& p) {
+      double q[kParams];
+      Law::pack(p, q);
+      for (int k = 0; k < kParams; ++k) param[k][a] = q[k];
+    }
+  };
+
+  // Entries s.act[0, len), len <= kBlock, as Contacts::pair for each, in order. Returns true if
+  // a force is not finite.
+  TSUBU_INLINE static bool pairs(const ContactView& c, const Scan& s, int len, Block& b,
+                                 double& excess, double& fmax) {
+    if (c.same)
+      gather<true>(c, s, len, b, excess);
+    else
+      gather<false>(c, s, len, b, excess);
+    const bool bad = evaluate<true>(b, s, len, c.dt, fmax);
+    store(c, s.act, len, b);
+    return bad;
+  }
+
+  template <bool kSame>
+  static void gather(const ContactView& c, const Scan& s, int len, Block& b, double& excess) {
+    for (int a = 0; a < len; ++a) {
+      const Index q = s.act[a], i = c.own[q], j = c.par[q];
+      const double ri = c.r[i], rj = c.r[j];
+      const double dist2 = s.d2[a], inv = s.inv[a];
+      const double delta = (ri + rj) - dist2 * inv;
+      const double ci = ri - 0.5 * delta, cj = rj - 0.5 * delta;
+      const L3 vrel = lanes(vec3(c.v, i) - vec3(c.v, j));
+      b.vrx[a] = vrel.x, b.vry[a] = vrel.y, b.vrz[a] = vrel.z;
+      if constexpr (F::kTangential) {
+        const L3 spin = C::spin_part(ci, lanes(vec3(c.w, i)), cj, lanes(vec3(c.w, j)));
+        b.spx[a] = spin.x, b.spy[a] = spin.y, b.spz[a] = spin.z;
+      }
+      b.inside[a] = dist2 < c.cut2[q];  // (1.10); else the contact has just opened
+      if (b.inside[a]) excess = std::max(excess, delta - c.limit * std::min(ri, rj));
+      b.delta[a] = delta, b.eta[a] = c.eta[q];
+      if constexpr (!kSame) b.put_params(a, (*c.table)(c.mat[i], c.mat[j]));
+      if constexpr (F::kHistory) {
+        const double* xi = c.xi + kHistory * q;
+        b.xix[a] = xi[0], b.xiy[a] = xi[1], b.xiz[a] = xi[2];
+      }
+    }
+  }
+
+  // The law over lanes [0, len) of a block of pairs (kPairs: the normal from the scan's x_ij and
+  // 1/|x_ij|, the velocities from the block's) or of walls (s unused). Returns true if a
+  // contact's force is not finite.
+  template <bool kPairs>
+  [[gnu::noinline]] static bool evaluate(Block& __restrict b, const Scan& __restrict s, int len,
+                                         double dt, double& fmax) {
+    // With a 32-bit `bad`, gcc runs 8 lanes per vector iteration (two independent chains of
+    // divisions and square roots, which the core overlaps) and the rest one at a time, each a
+    // long serial chain: the block is run to the next multiple of 8 instead. The extra lanes
+    // hold an earlier block's values (or zeros): their results are not read, not counted bad.
+    static_assert(kBlock % 8 == 0);
+    const int padded = (len + 7) & ~7;
+    int bad = 0;
+    std::uint64_t top = order_bits(fmax);  // the largest |fx| + |fy| + |fz| (>= |F|)
+    for (int a = 0; a < padded; ++a) {
+      L3 n, vt;
+      double vn;
+      if constexpr (kPairs) {
+        n = s.inv[a] * L3{s.dx[a], s.dy[a], s.dz[a]};
+        const L3 spin = F::kTangential ? L3{b.spx[a], b.spy[a], b.spz[a]} : L3{0, 0, 0};
+        vt = C::contact_velocity(n, {b.vrx[a], b.vry[a], b.vrz[a]}, spin, vn);
+      } else {
+        n = {b.nx[a], b.ny[a], b.nz[a]};
+        vt = {b.vtx[a], b.vty[a], b.vtz[a]};
+        vn = b.vn[a];
+      }
+      double q[kParams];
+      for (int k = 0; k < kParams; ++k) q[k] = b.param[k][a];
+      L3 xi{b.xix[a], b.xiy[a], b.xiz[a]}, f, t{0, 0, 0};
+      double power;
+      Law::lane(n, vt, b.delta[a], vn, b.eta[a], q, dt, xi, f, t, power);
+      b.xix[a] = xi.x, b.xiy[a] = xi.y, b.xiz[a] = xi.z;
+      b.fx[a] = f.x, b.fy[a] = f.y, b.fz[a] = f.z;
+      b.tx[a] = t.x, b.ty[a] = t.y, b.tz[a] = t.z;
+      b.power[a] = power;
+      const double sum = (f.x + f.y) + f.z;
+      bad |= (is_finite(sum) || a >= len) ? 0 : 1;  // (a just-opened lane's stay finite)
+      const std::uint64_t size = order_bits((std::abs(f.x) + std::abs(f.y)) + std::abs(f.z));
+      top = top > size ? top : size;  // (the padding lanes' earlier forces too: a bound)
+    }
+    fmax = from_order_bits(top);
+    return bad != 0;
+  }
+
+  // Where one kind of entry (near pairs, near walls) keeps its results.
+  struct Results {
+    std::uint8_t* touch;
+    double *overlap, *force, *nxft, *xi;
+  };
+
+  // Lane a of a block back to entry q: its results, or, where the contact has just opened,
+  // zeros and the energy its tangential spring held. Returns the energy lost this step.
+  TSUBU_INLINE static double store_lane(const Results& r, Index q, const Block& b, int a,
+                                        double dt) {
+    double lost = 0;
+    if (b.inside[a]) {
+      r.touch[q] = 1;
+      r.overlap[q] = b.delta[a];
+      double* f = r.force + 3 * q;
+      f[0] = b.fx[a], f[1] = b.fy[a], f[2] = b.fz[a];
+      if constexpr (F::kTangential) {
+        double* t = r.nxft + 3 * q;
+        t[0] = b.tx[a], t[1] = b.ty[a], t[2] = b.tz[a];
+        double* xi = r.xi + kHistory * q;
+        xi[0] = b.xix[a], xi[1] = b.xiy[a], xi[2] = b.xiz[a];
+      }
+      lost = b.power[a] * dt;
+    } else {
+      r.touch[q] = 0;
+      r.overlap[q] = 0;
+      vec3(r.force, q).setZero();
+      if constexpr (F::kHistory) {
+        double q_t[Law::tangential::kLaneParams];
+        for (int k = 0; k < Law::tangential::kLaneParams; ++k)
+          q_t[k] = b.param[Law::kNormalParams + k][a];
+        C::release(q_t, r.xi + kHistory * q, lost);
+      }
+      if constexpr (F::kTangential) vec3(r.nxft, q).setZero();
+    }
+    return lost;
+  }
+
+  static void store(const ContactView& c, const Index* act, int len, const Block& b) {
+    // The pointers as locals: the byte stores (touch, loaded) may alias anything in memory,
+    // and gcc would reload each pointer from `c` after every one of them.
+    const Results pairs{c.touch, c.overlap, c.force, c.nxft, c.xi};
+    const Index *own = c.own, *par = c.par;
+    std::uint8_t* loaded = c.loaded;
+    double* diss = c.diss;
+    const double dt = c.dt;
+    for (int a = 0; a < len; ++a) {
+      const Index q = act[a], i = own[q];
+      const double lost = store_lane(pairs, q, b, a, dt);
+      if (b.inside[a]) {
+        mark(loaded, i);
+        mark(loaded, par[q]);
+      }
+      diss[i] += lost;  // (+0 where nothing was lost)
+    }
+  }
+
+  // Near-wall entries e[0, len) in contact or just released, as Contacts::wall for each, in
+  // order, through the same block as pairs: the law's lanes take a wall as a partner with no
+  // radius, no spin and the plane's material. Returns true if a force is not finite.
+  static bool walls(const ContactView& c, const Index* e, int len, Block& b, const Scan& scan,
+                    double& excess, double& fmax) {
+    for (int a = 0; a < len; ++a) {
+      const Index i = c.wown[e[a]];
+      const Plane& P = c.planes[c.wall[e[a]]];
+      const PairParams& p = (*c.table)(c.mat[i], P.material);
+      const Vec3 xi_pos = vec3(c.x, i);
+      const double ri = c.r[i];
+      const double delta = P.overlap(xi_pos, ri);  // (3.1), signed: a half-space
+      const Vec3& n = P.normal_at(xi_pos);
+      b.inside[a] = delta > 0;
+      if (b.inside[a]) excess = std::max(excess, delta - c.limit * ri);
+      double ci;
+      Vec3 vt = Vec3::Zero();
+      const double vn = C::wall_approach(c, P, i, n, delta, ci, vt);
+      b.nx[a] = n.x(), b.ny[a] = n.y(), b.nz[a] = n.z();
+      b.vtx[a] = vt.x(), b.vty[a] = vt.y(), b.vtz[a] = vt.z();
+      b.delta[a] = delta, b.vn[a] = vn, b.eta[a] = Law::damping_coefficient(p, c.m[i]);
+      b.put_params(a, p);
+      if constexpr (F::kHistory) {
+        const double* xi = c.wxi + kHistory * e[a];
+        b.xix[a] = xi[0], b.xiy[a] = xi[1], b.xiz[a] = xi[2];
+      }
+    }
+    const bool bad = evaluate<false>(b, scan, len, c.dt, fmax);  // (the scan is not read)
+    const Results walls{c.wtouch, c.woverlap, c.wforce, c.wnxft, c.wxi};
+    for (int a = 0; a < len; ++a) {
+      const Index i = c.wown[e[a]];
+      const double lost = store_lane(walls, e[a], b, a, c.dt);
+      if (b.inside[a]) mark(c.loaded, i);
+      if (lost != 0) c.diss[i] += lost;
+    }
+    return bad;
+  }
+};
+
+}  // namespace tsubu::detail

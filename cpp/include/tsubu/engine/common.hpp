@@ -1,0 +1,95 @@
+// What every part of the engine shares: the features a law switches on, and small named helpers
+// for the tricks that keep the hot loops free of branches.
+#pragma once
+#include <cstdint>
+#include <cstring>
+#ifdef _OPENMP
+#include <omp.h>
+#endif
+
+#include "../contact/law.hpp"
+#include "../types.hpp"
+
+namespace tsubu::detail {
+
+// What the loop must do for a law, decided at compile time.
+template <class Law>
+struct Features {
+  static constexpr bool kHistory = Law::has_history;
+  static constexpr bool kTorque = Law::has_torque;
+  static constexpr bool kTangential = Law::tangential::enabled;
+  static constexpr bool kRolling = Law::rolling::enabled;
+  static constexpr bool kRough = Law::roughness::enabled;
+  static constexpr int kRoughWidth = Law::roughness::state_width;
+  // Laws without rolling friction or roughness evaluate pairs a block at a time (block.hpp).
+  static constexpr bool kBlocked = !kRolling && !kRough;
+};
+
+// ---- tricks, named -------------------------------------------------------------------------
+// x * 0 is 0 for any finite x and NaN for inf or NaN: summing these flags a non-finite value
+// anywhere in a loop without a branch per element.
+TSUBU_INLINE double nonfinite_flag(double x) { return x * 0.0; }
+// Whether x is finite, as arithmetic (inf - inf and NaN - NaN are NaN); std::isfinite and
+// Eigen's allFinite() are calls that keep the loop from vectorising.
+TSUBU_INLINE bool is_finite(double x) { return x - x == 0; }
+// Doubles >= 0 order as their bit patterns do as unsigned integers, and an integer maximum
+// vectorises where a floating one (with its NaN rules) does not: maxima are kept on the bits.
+TSUBU_INLINE std::uint64_t order_bits(double x) {
+  std::uint64_t b;
+  std::memcpy(&b, &x, sizeof b);
+  return b;
+}
+TSUBU_INLINE double from_order_bits(std::uint64_t b) {
+  double x;
+  std::memcpy(&x, &b, sizeof x);
+  return x;
+}
+
+// Flags particle k as having a contact this step (threads may flag the same one).
+inline void mark(std::uint8_t* loaded, Index k) { __atomic_store_n(loaded + k, 1, __ATOMIC_RELAXED); }
+
+// Inside a parallel region: this thread's number, the team's size and its part [lo, hi) of n
+// particles (contiguous, in order of thread number).
+struct Share {
+  int t, nt;
+  Index lo, hi;
+};
+inline Share share(Index n) {
+#ifdef _OPENMP
+  const int t = omp_get_thread_num(), nt = omp_get_num_threads();
+#else
+  const int t = 0, nt = 1;
+#endif
+  return {t, nt, Index(std::int64_t(n) * t / nt), Index(std::int64_t(n) * (t + 1) / nt)};
+}
+
+// [lo, hi) of part t of nt of an entry list sorted by owner, cut at owner boundaries, so that
+// each owner's entries (and its dissipation sum) belong to one thread.
+template <class Owner>
+Index part_start(Owner&& owner, Index count, int t, int nt) {
+  Index b = Index((std::int64_t(count) * t) / nt);
+  while (b > 0 && b < count && owner(b - 1) == owner(b)) --b;
+  return b;
+}
+
+// Scans entries [lo, hi) without branches, keeping in `act` those that pass `keep`; returns
+// how many.
+template <class Keep>
+Index compact(Index lo, Index hi, Index* act, Keep&& keep) {
+  Index count = 0;
+  for (Index q = lo; q < hi; ++q) {
+    act[count] = q;
+    count += keep(q) ? 1 : 0;
+  }
+  return count;
+}
+
+// What evaluating contacts found, for one thread or reduced over all: the largest overlap
+// beyond max_overlap x the smaller radius, whether a result is not finite, and the largest
+// |fx| + |fy| + |fz| of a contact force (for the fused pass's bound).
+struct Found {
+  double excess = 0, fmax = 0;
+  int bad = 0;
+};
+
+}  // namespace tsubu::detail

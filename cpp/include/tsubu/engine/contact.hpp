@@ -1,0 +1,226 @@
+// One contact at a time: a near-pair or near-wall entry that touches, or touched at the last step,
+// is measured (ContactGeometry), evaluated by the law and its results stored with it; an entry
+// that has opened is cleared and its stored energy booked as dissipated. Laws with rolling
+// friction or roughness take this path for all their contacts, the others for their walls only
+// when blocked evaluation is off (block.hpp).
+#pragma once
+#include <algorithm>
+#include <cmath>
+
+#include "rough.hpp"
+#include "views.hpp"
+
+namespace tsubu::detail {
+
+template <class Law>
+struct Contacts {
+  using F = Features<Law>;
+  using History = typename Law::History;
+
+  // A contact that opens loses the energy still stored in its tangential spring; q: the law's
+  // packed tangential parameters.
+  static void release(const double* q, double* xi, double& dissipated) {
+    const double u2 = xi[0] * xi[0] + xi[1] * xi[1] + xi[2] * xi[2];
+    if (u2 == 0) return;
+    dissipated += Law::tangential::elastic_energy(q, xi);
+    std::fill(xi, xi + Law::history_width, 0.0);
+  }
+  static void release(const PairParams& p, double* xi, double& dissipated) {
+    double q[Law::tangential::kLaneParams];
+    Law::tangential::pack(p, q);
+    release(q, xi, dissipated);
+  }
+
+  // Evaluates the law on geometry g with the entry's stored history; returns the result.
+  TSUBU_INLINE static ContactResult evaluate(const ContactGeometry& g, const PairParams& p,
+                                             double dt, double* xi) {
+    History h;
+    if constexpr (F::kHistory) std::copy(xi, xi + Law::history_width, h.xi);
+    ContactResult res;
+    Law::evaluate(g, p, dt, h, res);
+    if constexpr (F::kHistory) std::copy(h.xi, h.xi + Law::history_width, xi);
+    (void)xi;
+    return res;
+  }
+
+  // v_ij.n (returned in vn) and the tangential velocity of the contact points (1.12), from the
+  // relative velocity and the spins' part c_i w_i + c_j w_j, levers c along the line of centres.
+  TSUBU_INLINE static L3 contact_velocity(L3 n, L3 vrel, L3 spin, double& vn) {
+    vn = dot(vrel, n);
+    if constexpr (F::kTangential) return vrel - vn * n - cross(spin, n);
+    (void)spin;
+    return {0, 0, 0};
+  }
+  TSUBU_INLINE static L3 spin_part(double ci, L3 wi, double cj, L3 wj) { return ci * wi + cj * wj; }
+  TSUBU_INLINE static L3 approach(L3 n, L3 vrel, double ci, double cj, L3 wi, L3 wj, double& vn) {
+    if constexpr (F::kTangential) return contact_velocity(n, vrel, spin_part(ci, wi, cj, wj), vn);
+    (void)ci, (void)cj, (void)wi, (void)wj;
+    return contact_velocity(n, vrel, {0, 0, 0}, vn);
+  }
+
+  // Ends a pair contact: its results go to zero and its spring energy is booked as lost.
+  static double end_pair(const ContactView& c, Index q, const PairParams& params, const Vec3& d,
+                         double rs, double dist2) {
+    double lost = 0;
+    c.touch[q] = 0;
+    c.overlap[q] = 0;
+    vec3(c.force, q).setZero();
+    if constexpr (F::kHistory) release(params, c.xi + Law::history_width * q, lost);
+    if constexpr (F::kTangential || F::kRough) vec3(c.nxft, q).setZero();
+    if constexpr (F::kRolling) vec3(c.roll, q).setZero();
+    if constexpr (F::kRough) {
+      if (params.roughness > 0) {  // a facet spring still loaded is lost with it
+        const double o = Rough<Law>::pair_overlap(c.rough + F::kRoughWidth * q, d, rs - std::sqrt(dist2));
+        if (o > 0) lost += Law::normal_energy(params, o);
+      }
+    }
+    (void)d;
+    (void)rs;
+    (void)dist2;
+    return lost;
+  }
+
+  // One near-pair entry that touches or has just stopped touching. Returns the energy it lost
+  // this step; raises `excess` to its overlap beyond max_overlap x the smaller radius.
+  TSUBU_INLINE static double pair(const ContactView& c, Index q, double inv_dist, double& excess) {
+    const Index i = c.own[q], j = c.par[q];
+    const double ri = c.r[i], rj = c.r[j], dt = c.dt;
+    const Vec3 d = c.box.displacement(vec3(c.x, i), vec3(c.x, j));
+    const double rs = ri + rj;
+    const double dist2 = dot(lanes(d), lanes(d));
+    const PairParams& params = (*c.table)(c.mat[i], c.mat[j]);
+    if (dist2 >= c.cut2[q]) return end_pair(c, q, params, d, rs, dist2);  // (1.10)
+    ContactGeometry g;
+    const double dist = dist2 * inv_dist;
+    g.delta = rs - dist;
+    const Vec3 n = d * inv_dist;
+    g.n = n;
+    excess = std::max(excess, g.delta - c.limit * std::min(ri, rj));
+    g.eta_n = c.eta[q];
+    if constexpr (F::kRough) g.m_eff = c.m[i] * c.m[j] / (c.m[i] + c.m[j]);
+    const Vec3 vrel = vec3(c.v, i) - vec3(c.v, j);
+    if constexpr (F::kTorque) {
+      g.ci = ri - 0.5 * g.delta;
+      g.cj = rj - 0.5 * g.delta;
+    }
+    bool tilted = false;
+    if constexpr (F::kRough) {
+      if (params.roughness > 0) {
+        const ContactStream stream{c.seed, std::uint64_t(c.ids[i]), std::uint64_t(c.ids[j]),
+                                   c.step};
+        double virtual_overlap = 0;
+        const Vec3 spin = (g.ci * vec3(c.w, i) + g.cj * vec3(c.w, j)).cross(n);
+        g.n = Rough<Law>::pair(params, n, d, g.delta, vrel, spin, g.m_eff, c.touch[q],
+                               c.rough + F::kRoughWidth * q, stream, dt, virtual_overlap);
+        if (!(virtual_overlap > 0))  // not (or no longer) pressed across the facet
+          return c.touch[q] ? end_pair(c, q, params, d, rs, dist2) : 0.0;
+        g.delta = virtual_overlap;
+        tilted = true;
+      }
+    }
+    if (!tilted) {
+      const L3 vt = approach(lanes(n), lanes(vrel), g.ci, g.cj, lanes(vec3(c.w, i)),
+                             lanes(vec3(c.w, j)), g.vn);
+      if constexpr (F::kTangential) g.vt = vec(vt);
+    } else {
+      // Contact points on the line of centres; normal and tangential parts relative to n'.
+      const Vec3 spin = (g.ci * vec3(c.w, i) + g.cj * vec3(c.w, j)).cross(n);
+      const Vec3 vcp = vrel - spin;
+      g.vn = vcp.dot(g.n);
+      if constexpr (F::kTangential) g.vt = vcp - g.vn * g.n;
+    }
+    if constexpr (F::kRolling) {
+      g.w_rel = vec3(c.w, i) - vec3(c.w, j);
+      g.ri = ri;
+      g.rj = rj;
+      g.spin_mobility = ri * c.inv_i[i] + rj * c.inv_i[j];
+    }
+    ContactResult res = evaluate(g, params, dt, c.xi + Law::history_width * q);
+    c.touch[q] = 1;
+    c.overlap[q] = rs - dist;  // geometric: it sets the levers c = r - overlap/2
+    vec3(c.force, q) = res.force;
+    // (1.19) with the contact-point lever c_i along the line of centres; with a tilted normal
+    // the whole force has a moment about the centres (n x F), which keeps angular momentum exact.
+    if constexpr (F::kTangential || F::kRough)
+      vec3(c.nxft, q) = tilted ? Vec3(n.cross(res.force)) : res.n_cross_ft;
+    if constexpr (F::kRolling) {
+      vec3(c.roll, q) = res.roll;
+      res.power -= res.roll.dot(ri * vec3(c.w, i) - rj * vec3(c.w, j));
+    }
+    return res.power * dt;
+  }
+
+  // A wall contact's approach along n at the contact point x_i - c n (lever c = r - delta/2,
+  // set in `ci`): returns v_n; sets the tangential velocity (1.12) where the law has one.
+  static double wall_approach(const ContactView& c, const Plane& P, Index i, const Vec3& n,
+                              double delta, double& ci, Vec3& vt) {
+    ci = c.r[i] - 0.5 * delta;
+    Vec3 vrel = vec3(c.v, i);
+    if (c.moving) vrel -= P.velocity_at(Plane::contact_point(vec3(c.x, i), ci, n));
+    const double vn = vrel.dot(n);
+    if constexpr (F::kTangential) vt = vrel - vn * n - (ci * vec3(c.w, i)).cross(n);
+    return vn;
+  }
+
+  // One near-wall entry that touches, or touched last step. Returns the energy it lost; raises
+  // `excess` as pair().
+  static double wall(const ContactView& c, Index e, double& excess) {
+    const Index i = c.wown[e];
+    const Plane& P = c.planes[c.wall[e]];
+    const PairParams& params = (*c.table)(c.mat[i], P.material);
+    const Vec3 xi_pos = vec3(c.x, i);
+    const double ri = c.r[i], dt = c.dt;
+    double delta = P.overlap(xi_pos, ri);  // (3.1), signed: a half-space
+    Vec3 n = P.normal_at(xi_pos);
+    if constexpr (F::kRough) {
+      if (params.roughness > 0) {
+        Vec3 vw = vec3(c.v, i);
+        if (c.moving) vw -= P.velocity_at(Plane::contact_point(xi_pos, ri, n));
+        const ContactStream stream{c.seed, std::uint64_t(c.ids[i]),
+                                   ContactStream::kWallTag + std::uint64_t(c.wall[e]), c.step};
+        Rough<Law>::wall(params, P, xi_pos, ri, vw, c.m[i], c.wtouch[e],
+                         c.wrough + F::kRoughWidth * e, stream, dt, n, delta);
+      }
+    }
+    if (delta <= 0) {
+      double lost = 0;
+      if (c.wtouch[e]) {
+        c.wtouch[e] = 0;
+        c.woverlap[e] = 0;
+        vec3(c.wforce, e).setZero();
+        if constexpr (F::kHistory) release(params, c.wxi + Law::history_width * e, lost);
+        if constexpr (F::kTangential) vec3(c.wnxft, e).setZero();
+        if constexpr (F::kRolling) vec3(c.wroll, e).setZero();
+      }
+      return lost;
+    }
+    ContactGeometry g;
+    g.n = n;
+    g.delta = delta;
+    excess = std::max(excess, delta - c.limit * ri);
+    g.m_eff = c.m[i];
+    g.eta_n = Law::damping_coefficient(params, g.m_eff);
+    g.cj = 0;
+    g.vn = wall_approach(c, P, i, n, delta, g.ci, g.vt);
+    if constexpr (F::kRolling) {
+      g.w_rel = vec3(c.w, i);
+      if (c.moving) g.w_rel -= P.angular_velocity;
+      g.ri = ri;
+      g.rj = 0;
+      g.spin_mobility = ri * c.inv_i[i];
+    }
+    ContactResult res = evaluate(g, params, dt, c.wxi + Law::history_width * e);
+    c.wtouch[e] = 1;
+    c.woverlap[e] = delta;
+    vec3(c.wforce, e) = res.force;
+    // The lever runs along the (facet) normal: the wall's surface.
+    if constexpr (F::kTangential) vec3(c.wnxft, e) = res.n_cross_ft;
+    if constexpr (F::kRolling) {
+      vec3(c.wroll, e) = res.roll;
+      res.power -= ri * res.roll.dot(g.w_rel);
+    }
+    return res.power * dt;
+  }
+};
+
+}  // namespace tsubu::detail

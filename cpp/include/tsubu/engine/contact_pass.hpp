@@ -1,0 +1,135 @@
+// Pass 1 of a step: every near pair and near-wall entry in contact, or in contact at the last
+// step, is evaluated (or ended) and its result stored with it; each owner books the energy its
+// entries lost. A branch-free scan compacts the entries in contact, 64 at a time, so that the
+// spheres it read are still in the nearest cache when they are evaluated.
+#pragma once
+#include <algorithm>
+#include <cmath>
+
+#include "block.hpp"
+
+namespace tsubu::detail {
+
+template <class Law>
+struct ContactPass {
+  using F = Features<Law>;
+  using C = Contacts<Law>;
+  using B = Blocked<Law>;
+  using Block = typename B::Block;
+
+  // The pair entries [lo, hi) in contact or in contact last step, into the scan; the
+  // separations found on the way are kept for the law.
+  static Index compact_pairs(const ContactView& c, Index lo, Index hi, Scan& s) {
+    Index count = 0;
+    for (Index q = lo; q < hi; ++q) {
+      const L3 d = c.box.displacement(c.x + 3 * c.own[q], c.x + 3 * c.par[q]);
+      const double dd = dot(d, d);
+      s.act[count] = q;
+      s.dx[count] = d.x, s.dy[count] = d.y, s.dz[count] = d.z, s.d2[count] = dd;
+      count += ((dd < c.cut2[q]) | (c.touch[q] != 0)) ? 1 : 0;
+    }
+    return count;
+  }
+
+  // In a large scene the scan waits on memory for the partners' positions (a partner sits up to
+  // a layer of cells further down the array; in the fused pass, up to two layers back, in the
+  // last level of cache) and the store on the owners' dissipation sums: those of the chunk two
+  // chunks ahead are requested while this one is scanned. Not inlined: inlined, the branch that
+  // skips it changes the register allocation of the whole range loop.
+  [[gnu::noinline]] static void prefetch_partners(const ContactView& c, Index lo, Index hi) {
+    for (Index q = lo; q < hi; ++q) {
+      __builtin_prefetch(c.x + 3 * std::size_t(c.par[q]));
+      __builtin_prefetch(c.diss + c.own[q], 1);
+    }
+  }
+
+  // 1/|x_ij| of every kept pair, in one pass that the compiler vectorises: the square roots and
+  // divisions then leave the contact law's critical path.
+  [[gnu::noinline]] static void inverse_distances(Scan& s, Index count) {
+    for (Index a = 0; a < count; ++a) s.inv[a] = 1.0 / std::sqrt(s.d2[a]);
+  }
+
+  static void note_force(const Eigen::Map<Vec3>& force, Found& f) {
+    if (!is_finite(force.sum())) f.bad = 1;
+    f.fmax = std::max(f.fmax, force.cwiseAbs().sum());
+  }
+
+  // Near-pair entries [lo, hi), whole owners, a chunk of kBlock at a time. `far`: the
+  // partners' positions are requested two chunks ahead.
+  [[gnu::noinline]] static void pair_range(const ContactView& c, Index lo, Index hi, bool far,
+                                           Scan& scan, Block& block, Found& f) {
+    for (Index base = lo; base < hi; base += kBlock) {
+      if (far) prefetch_partners(c, std::min(hi, base + 2 * kBlock), std::min(hi, base + 3 * kBlock));
+      const Index count = compact_pairs(c, base, std::min<Index>(hi, base + kBlock), scan);
+      inverse_distances(scan, count);
+      if constexpr (F::kBlocked) {
+        if (B::pairs(c, scan, int(count), block, f.excess, f.fmax)) f.bad = 1;
+      } else {
+        for (Index a = 0; a < count; ++a) {
+          const Index q = scan.act[a];
+          const double lost = C::pair(c, q, scan.inv[a], f.excess);
+          if (lost != 0) c.diss[c.own[q]] += lost;
+          if (c.touch[q]) {
+            mark(c.loaded, c.own[q]);
+            mark(c.loaded, c.par[q]);
+          }
+          note_force(vec3(c.force, q), f);
+        }
+      }
+    }
+  }
+
+  // Part t of nt of the near-wall entries in contact or just released; after every pair, so that
+  // an owner's dissipation sum keeps one order.
+  static void wall_part(const ContactView& c, int t, int nt, Scan& scan, Block& block, Found& f) {
+    const Index nw = c.walls;
+    Index* const wact = c.wact;
+    auto wall_owner = [&](Index p) { return c.wown[c.wnear[p]]; };
+    const Index wlo = part_start(wall_owner, nw, t, nt), whi = part_start(wall_owner, nw, t + 1, nt);
+    const Index wcount = compact(wlo, whi, wact + wlo, [&](Index p) {
+      const Index e = c.wnear[p];
+      const Plane& P = c.planes[c.wall[e]];
+      const double gap = P.distance(vec3(c.x, c.wown[e])) - c.r[c.wown[e]];
+      return (gap < 0) | (c.wtouch[e] != 0);
+    });
+    if constexpr (F::kBlocked) {
+      Index e[kBlock];
+      for (Index a0 = 0; a0 < wcount; a0 += kBlock) {
+        const int len = int(std::min<Index>(kBlock, wcount - a0));
+        for (int a = 0; a < len; ++a) e[a] = c.wnear[wact[wlo + a0 + a]];
+        if (B::walls(c, e, len, block, scan, f.excess, f.fmax)) f.bad = 1;
+      }
+    } else {
+      for (Index a = 0; a < wcount; ++a) {
+        const Index e = c.wnear[wact[wlo + a]];
+        const double lost = C::wall(c, e, f.excess);
+        if (lost != 0) c.diss[c.wown[e]] += lost;
+        if (c.wtouch[e]) mark(c.loaded, c.wown[e]);
+        note_force(vec3(c.wforce, e), f);
+      }
+    }
+  }
+
+  // The whole pass, in one parallel region: each thread takes a contiguous part of the near
+  // list, cut at owner boundaries, then its part of the near-wall entries.
+  static Found run(const ContactView& c) {
+    double excess = 0, fmax = 0;
+    int bad = 0;
+#pragma omp parallel num_threads(c.threads) reduction(max : excess, fmax, bad)
+    {
+      const Share me = share(0);
+      auto pair_owner = [&](Index q) { return c.own[q]; };
+      Scan scan{};
+      Block block(c.same);
+      Found f;
+      pair_range(c, part_start(pair_owner, c.pairs, me.t, me.nt),
+                 part_start(pair_owner, c.pairs, me.t + 1, me.nt), c.far, scan, block, f);
+#pragma omp barrier
+      wall_part(c, me.t, me.nt, scan, block, f);
+      excess = f.excess, fmax = f.fmax, bad = f.bad;
+    }
+    return {excess, fmax, bad};
+  }
+};
+
+}  // namespace tsubu::detail

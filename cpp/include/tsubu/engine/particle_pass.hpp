@@ -1,0 +1,175 @@
+// Pass 2 of a step, over particles (2.2), a chunk of kChunk particles at a time: the particles of
+// the chunk with an entry in contact sum their contacts (ContactSums, order fixed by ids) into
+// v += dt F/m, w += dt T/I; then a dense pass over the chunk adds gravity and moves it,
+// v += dt g, x += dt v (the chunk's velocities are still in the nearest cache), and bounds the
+// distance moved for the neighbour lists by dt max|v|.
+#pragma once
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+
+#include "views.hpp"
+
+namespace tsubu::detail {
+
+template <class Law>
+struct ParticlePass {
+  using F = Features<Law>;
+  static constexpr Index kChunk = 2048, kAhead = 8;
+
+  // v += dt g, x += dt v over particles [lo, hi); returns max |v|^2 and a sum that is not
+  // finite if a velocity is not. Outside any OpenMP region, with local accumulators and the
+  // maximum on the bits, so that gcc vectorises it.
+  [[gnu::noinline]] static void drift(double* x, double* v, Index lo, Index hi, double dt,
+                                     const double gx, const double gy, const double gz,
+                                     double& vmax2, double& check) {
+    std::uint64_t top = 0;
+    double sum = 0;
+    for (Index k = lo; k < hi; ++k) {
+      const double vx = v[3 * k] + gx, vy = v[3 * k + 1] + gy, vz = v[3 * k + 2] + gz;
+      v[3 * k] = vx;
+      v[3 * k + 1] = vy;
+      v[3 * k + 2] = vz;
+      x[3 * k] += dt * vx;
+      x[3 * k + 1] += dt * vy;
+      x[3 * k + 2] += dt * vz;
+      const double v2 = vx * vx + vy * vy + vz * vz;
+      const std::uint64_t bits = order_bits(v2);
+      top = top > bits ? top : bits;
+      sum += nonfinite_flag(v2);
+    }
+    vmax2 = from_order_bits(top);
+    check = sum;
+  }
+
+  // The sums of a run of busy particles from the flat entry list (Simulation::sum_entry_):
+  // entries [p0, p1) in one loop, each adding its force (and n x F_t moment) to its particle's
+  // running sum, which restarts at zero at a particle's first entry; the running sums go to
+  // out[8 slot] (F in 0-2, T in 4-6), slot counting the particles from 0. The same additions in
+  // the same order as ContactSums::at, so the same bits, without the three short loops per
+  // particle whose exits the branch predictor misses.
+  static constexpr bool kFlatSums = !F::kRolling && (F::kTangential || !F::kRough);
+  static constexpr Index kFlatRun = 256;
+  // Four doubles as one value (GCC's vector extension: an AVX register where there is one).
+  typedef double V4 __attribute__((vector_size(32)));
+  typedef std::int64_t M4 __attribute__((vector_size(32)));
+  // a[0..2] and, in the fourth lane, whatever follows (the next entry, or the allocator's tail,
+  // memory.hpp): one load instead of three; the fourth lane of the sums is never read.
+  TSUBU_INLINE static V4 load4(const double* a) {
+    V4 r;
+    std::memcpy(&r, a, sizeof r);
+    return r;
+  }
+
+  [[gnu::noinline]] static void flat_sums(const std::uint32_t* __restrict entry, Index p0, Index p1,
+                                          const ContactSums& sums, const double* rads,
+                                          double* __restrict out) {
+    // Indexed by the kind, so that the loop has no branch for gcc to guess: the arrays read,
+    // the sign of the force (F - f is F + (-f), bit for bit).
+    const double* force[4] = {sums.pf, sums.pf, sums.wf, sums.wf};
+    const double* moment[4] = {sums.pn, sums.pn, sums.wn, sums.wn};
+    const double* overlap[4] = {sums.po, sums.po, sums.wo, sums.wo};
+    const double sign[4] = {1.0, -1.0, 1.0, 1.0};
+    std::int64_t slot = -1;
+    V4 F{0, 0, 0, 0}, T{0, 0, 0, 0};
+    for (const std::uint32_t *p = entry + p0, *end = entry + p1; p < end; ++p) {
+      const std::uint32_t u = *p, kind = u & 3u;
+      const std::size_t e = u >> 3;
+      const std::int64_t first = (u >> 2) & 1u;
+      const M4 keep = M4{} + (first - 1);  // all ones but at a particle's first entry: from +0
+      slot += first;
+      F = V4(M4(F) & keep) + sign[kind] * load4(force[kind] + 3 * e);
+      std::memcpy(out + 8 * slot, &F, sizeof F);
+      if constexpr (Features<Law>::kTangential) {  // (1.19): both sides take -(r - overlap/2) n x F_t
+        const double lever = rads[slot] - 0.5 * overlap[kind][e];
+        T = V4(M4(T) & keep) - lever * load4(moment[kind] + 3 * e);
+        std::memcpy(out + 8 * slot + 4, &T, sizeof T);
+      }
+    }
+  }
+
+  // Particles [c0, c1) (at most kChunk), whose busy ones start at busy[b] (b is moved past
+  // them): kicks and drift. Raises vmax2 to max |v|^2; adds to `check` 0, or NaN if a new
+  // velocity is not finite.
+  static void chunk(const ParticleView& pv, Index c0, Index c1, Index& b, double& vmax2,
+                    double& check) {
+    // Locals, and a lambda that captures them by value: the byte store to `loaded` may alias
+    // anything in memory, and gcc would reload every member or captured reference after it.
+    double *const v = pv.v, *const w = pv.w;
+    const double *const inv_m = pv.inv_m, *const inv_i = pv.inv_i;
+    std::uint8_t* const loaded = pv.loaded;
+    const Index* const busy = pv.busy;
+    const Index nb = pv.nb;
+    const double dt = pv.dt;
+    // Particle k in contact takes its sums: v += dt F/m, w += dt T/I. Returns 0, or NaN if
+    // the new spin is not finite.
+    auto kick = [=](Index k, const auto& F, const auto& T) {
+      loaded[k] = 0;
+      vec3(v, k) += (dt * inv_m[k]) * F;
+      if constexpr (Features<Law>::kTorque) {
+        const Vec3 wk = vec3(w, k) + (dt * inv_i[k]) * T;
+        vec3(w, k) = wk;
+        return nonfinite_flag(wk.sum());
+      }
+      return 0.0;
+    };
+    double kicked = 0;
+    // The chunk's particles in contact, listed without branches; then their sums, each
+    // prefetching the offsets and velocities of the particle kAhead places further down the
+    // list (at N = 1e6 the particles in contact are a few per cent, scattered, and each read
+    // would otherwise wait on memory).
+    Index list[kChunk];
+    Index count = 0;
+    const Index b0 = b;
+    for (; b < nb && busy[b] < c1; ++b) {
+      const Index k = busy[b];
+      list[count] = k;
+      count += loaded[k] ? 1 : 0;
+    }
+    // Where most busy particles are in contact (dense packs), all of them are summed from
+    // the flat entry list, and those in contact take their sums.
+    if (kFlatSums && pv.flat && 2 * count >= b - b0) {
+      for (Index r0 = b0; r0 < b; r0 += kFlatRun) {
+        const Index r1 = std::min(b, r0 + kFlatRun);
+        double rads[kFlatRun], out[8 * kFlatRun];
+        for (Index a = r0; a < r1; ++a) rads[a - r0] = pv.radius[busy[a]];
+        flat_sums(pv.sum_entry, pv.sum_offset[r0], pv.sum_offset[r1], pv.sums, rads, out);
+        for (Index a = r0; a < r1; ++a) {
+          const double* o = out + 8 * (a - r0);
+          if (loaded[busy[a]])
+            kicked += kick(busy[a], Eigen::Map<const Vec3>(o), Eigen::Map<const Vec3>(o + 4));
+        }
+      }
+      count = 0;
+    }
+    for (Index a = 0; a < count; ++a) {
+      if (a + kAhead < count) pv.sums.prefetch(list[a + kAhead], v, w);
+      const Index k = list[a];
+      Vec3 F = Vec3::Zero(), T = Vec3::Zero();
+      pv.sums.template at<Features<Law>::kTangential,
+                          Features<Law>::kTangential || Features<Law>::kRough,
+                          Features<Law>::kRolling>(k, F, T);
+      kicked += kick(k, F, T);
+    }
+    double part_vmax2 = 0, part_check = 0;
+    drift(pv.x, v, c0, c1, dt, pv.gx, pv.gy, pv.gz, part_vmax2, part_check);
+    vmax2 = std::max(vmax2, part_vmax2);
+    check += part_check + kicked;
+  }
+
+  // The whole pass. Returns true if a new velocity is not finite; sets vmax2 to max |v|^2.
+  static bool run(const ParticleView& pv, double& vmax2_out) {
+    double vmax2 = 0, check = 0;
+#pragma omp parallel num_threads(pv.threads) reduction(max : vmax2) reduction(+ : check)
+    {
+      const Share me = share(pv.n);
+      Index b = pv.first_busy(me.lo);
+      for (Index c0 = me.lo; c0 < me.hi; c0 += kChunk)
+        chunk(pv, c0, std::min(me.hi, c0 + kChunk), b, vmax2, check);
+    }
+    vmax2_out = vmax2;
+    return !(check == 0);
+  }
+};
+
+}  // namespace tsubu::detail

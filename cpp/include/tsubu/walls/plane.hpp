@@ -1,0 +1,67 @@
+// A plane wall a x + b y + c z + d = 0 (3.1-3.2), stored as a point and a unit normal pointing to
+// the side where spheres live. It translates with `velocity` and rotates with `angular_velocity`
+// about `point`.
+//
+// A wall model answers, for a sphere: the gap and the normal (distance, normal_at), the contact
+// point and the wall's velocity there (velocity_at), and whether the sphere is near enough to
+// need a near-wall entry (near). The neighbour lists and the contact pass ask only these.
+#pragma once
+#include <Eigen/Geometry>
+
+#include "../types.hpp"
+
+namespace tsubu {
+
+struct Plane {
+  Vec3 point = Vec3::Zero();
+  Vec3 normal = Vec3(0, 0, 1);
+  Vec3 velocity = Vec3::Zero();
+  Vec3 angular_velocity = Vec3::Zero();
+  int material = 0;
+
+  bool moving() const { return velocity.squaredNorm() > 0 || angular_velocity.squaredNorm() > 0; }
+
+  // Signed distance of x from the plane along direction `dir` (the normal, or a rough facet's
+  // tilted normal), positive on the spheres' side (3.1).
+  TSUBU_INLINE double distance(const Vec3& x, const Vec3& dir) const { return dir.dot(x - point); }
+  TSUBU_INLINE double distance(const Vec3& x) const { return distance(x, normal); }
+  // Overlap of a sphere of radius r at x, r - distance (3.1): signed, the plane is a half-space.
+  TSUBU_INLINE double overlap(const Vec3& x, double r) const { return r - distance(x); }
+  // The normal at the point of the wall nearest x (a plane: everywhere the same).
+  TSUBU_INLINE const Vec3& normal_at(const Vec3&) const { return normal; }
+  // The contact point of a sphere at x: lever c back along the normal n.
+  TSUBU_INLINE static Vec3 contact_point(const Vec3& x, double c, const Vec3& n) { return x - c * n; }
+  // The wall's velocity at point y.
+  TSUBU_INLINE Vec3 velocity_at(const Vec3& y) const {
+    return velocity + angular_velocity.cross(y - point);
+  }
+  // Whether a sphere of radius r at x is within `reach` of touching (or behind the plane).
+  TSUBU_INLINE bool near(const Vec3& x, double r, double reach) const { return distance(x) < r + reach; }
+
+  // One step of the wall's motion.
+  void advance(double dt) {
+    point += dt * velocity;
+    const double angle = angular_velocity.norm() * dt;
+    if (angle > 0) {
+      const Vec3 axis = angular_velocity.normalized();
+      normal = Eigen::AngleAxisd(angle, axis) * normal;
+      normal.normalize();
+    }
+  }
+  // How far the signed distance of any point within `reach` of the reference point p0 can have
+  // changed since the plane stood at (p0, n0): |n.(p - p0)| + |n - n0| reach.
+  double shift_since(const Vec3& p0, const Vec3& n0, double reach) const {
+    return std::abs(normal.dot(point - p0)) + (normal - n0).norm() * reach;
+  }
+};
+
+// How a wall entry's contact state is found again after a rebuild: by wall, and, for walls made
+// of many elements (a triangle mesh), by element, so that a contact sliding across elements can
+// carry its history. A plane is one element.
+struct WallKey {
+  int wall;
+  int element;
+  bool operator==(const WallKey& o) const { return wall == o.wall && element == o.element; }
+};
+
+}  // namespace tsubu
