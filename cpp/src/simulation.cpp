@@ -482,7 +482,7 @@ Energy Simulation::energy_now() const {
       if (pair_state_.xi.empty()) continue;
       const Vec3 xi = vec3(pair_state_.xi.data(), q);
       e.elastic += law.tangential_energy(p, xi.data());
-      const Vec3 lever = (particles_.radius[i] - 0.5 * delta) * vec3(w, i) + (particles_.radius[j] - 0.5 * delta) * vec3(w, j);
+      const Vec3 lever = contact_lever(particles_.radius[i], delta) * vec3(w, i) + contact_lever(particles_.radius[j], delta) * vec3(w, j);
       power += p.kt * xi.dot(slip(n, vrel, lever));
     }
     for (Index k = wall_offset_[i]; k < wall_offset_[i + 1]; ++k) {
@@ -495,7 +495,7 @@ Energy Simulation::energy_now() const {
       if (wall_state_.xi.empty()) continue;
       const Vec3 xi = vec3(wall_state_.xi.data(), k);
       e.elastic += law.tangential_energy(p, xi.data());
-      power += p.kt * xi.dot(slip(P.normal, vec3(v, i), (particles_.radius[i] - 0.5 * delta) * vec3(w, i)));
+      power += p.kt * xi.dot(slip(P.normal, vec3(v, i), contact_lever(particles_.radius[i], delta) * vec3(w, i)));
     }
   }
   e.step_correction = 0.5 * dt_ * power;
@@ -641,7 +641,7 @@ std::vector<ContactInfo> Simulation::contacts() const {
   auto torque = [](const Array<double>& nxft, const Array<double>& roll, double r,
                    double overlap, std::size_t e) {
     Vec3 t = Vec3::Zero();
-    if (!nxft.empty()) t -= (r - 0.5 * overlap) * vec3(nxft.data(), e);
+    if (!nxft.empty()) t -= contact_lever(r, overlap) * vec3(nxft.data(), e);
     if (!roll.empty()) t += r * vec3(roll.data(), e);
     return t;
   };

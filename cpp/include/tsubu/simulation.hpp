@@ -370,18 +370,18 @@ struct ContactSums {
     for (Index p = woff[k]; p < woff[k + 1]; ++p) {
       const Index e = wnear[p];
       F += vec3(wf, e);
-      if constexpr (kWallLever) T -= (rk - 0.5 * wo[e]) * vec3(wn, e);  // (1.19)
+      if constexpr (kWallLever) T -= contact_lever(rk, wo[e]) * vec3(wn, e);  // (1.19)
       if constexpr (kRolling) T += rk * vec3(wr, e);                     // (1.20)
     }
     for (Index q = noff[k]; q < noff[k + 1]; ++q) {
       F += vec3(pf, q);
-      if constexpr (kPairLever) T -= (rk - 0.5 * po[q]) * vec3(pn, q);
+      if constexpr (kPairLever) T -= contact_lever(rk, po[q]) * vec3(pn, q);
       if constexpr (kRolling) T += rk * vec3(pr, q);
     }
     for (Index p = roff[k]; p < roff[k + 1]; ++p) {
       const Index q = rev[p];
       F -= vec3(pf, q);
-      if constexpr (kPairLever) T -= (rk - 0.5 * po[q]) * vec3(pn, q);
+      if constexpr (kPairLever) T -= contact_lever(rk, po[q]) * vec3(pn, q);
       if constexpr (kRolling) T -= rk * vec3(pr, q);
     }
   }

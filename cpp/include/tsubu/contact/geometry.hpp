@@ -30,6 +30,14 @@ TSUBU_INLINE L3 select(bool c, L3 a, L3 b) { return {c ? a.x : b.x, c ? a.y : b.
 TSUBU_INLINE L3 lanes(const Vec3& v) { return {v.x(), v.y(), v.z()}; }
 TSUBU_INLINE Vec3 vec(L3 a) { return Vec3(a.x, a.y, a.z); }
 
+// The overlap of two spheres of radii ri, rj at squared distance dist2, given 1/|x_ij| (1.7).
+TSUBU_INLINE double pair_overlap(double ri, double rj, double dist2, double inv_dist) {
+  return (ri + rj) - dist2 * inv_dist;
+}
+// The lever of a contact force about a sphere's centre: its radius less half the overlap, the
+// distance to the contact point on the line of centres (1.19).
+TSUBU_INLINE double contact_lever(double r, double overlap) { return r - 0.5 * overlap; }
+
 struct ContactGeometry {
   Vec3 n;          // unit normal from j (or the wall) to i (1.9)
   double delta;    // overlap r_i + r_j - |x_ij| > 0 (1.7, 1.10); wall: r_i - distance (3.1)

@@ -5,6 +5,7 @@
 // single contacts, in the same order, so are the bits.
 #pragma once
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstring>
 
@@ -49,6 +50,12 @@ struct Blocked {
       Law::pack(*same, q);
       for (int k = 0; k < kParams; ++k) std::fill(param[k], param[k] + kBlock, q[k]);
     }
+    // Lane a's tangential parameters, as the law packed them.
+    std::array<double, Law::tangential::kLaneParams + 1> param_column_tangential(int a) const {
+      std::array<double, Law::tangential::kLaneParams + 1> q{};
+      for (int k = 0; k < Law::tangential::kLaneParams; ++k) q[k] = param[Law::kNormalParams + k][a];
+      return q;
+    }
     void put_params(int a, const PairParams& p) {
       double q[kParams];
       Law::pack(p, q);
@@ -75,8 +82,8 @@ struct Blocked {
       const Index q = s.act[a], i = c.own[q], j = c.par[q];
       const double ri = c.r[i], rj = c.r[j];
       const double dist2 = s.d2[a], inv = s.inv[a];
-      const double delta = (ri + rj) - dist2 * inv;
-      const double ci = ri - 0.5 * delta, cj = rj - 0.5 * delta;
+      const double delta = pair_overlap(ri, rj, dist2, inv);
+      const double ci = contact_lever(ri, delta), cj = contact_lever(rj, delta);
       const L3 vrel = lanes(vec3(c.v, i) - vec3(c.v, j));
       b.vrx[a] = vrel.x, b.vry[a] = vrel.y, b.vrz[a] = vrel.z;
       if constexpr (F::kTangential) {
@@ -138,11 +145,7 @@ struct Blocked {
     return bad != 0;
   }
 
-  // Where one kind of entry (near pairs, near walls) keeps its results.
-  struct Results {
-    std::uint8_t* touch;
-    double *overlap, *force, *nxft, *xi;
-  };
+  using Results = typename C::Results;
 
   // Lane a of a block back to entry q: its results, or, where the contact has just opened,
   // zeros and the energy its tangential spring held. Returns the energy lost this step.
@@ -162,24 +165,21 @@ struct Blocked {
       }
       lost = b.power[a] * dt;
     } else {
-      r.touch[q] = 0;
-      r.overlap[q] = 0;
-      vec3(r.force, q).setZero();
-      if constexpr (F::kHistory) {
-        double q_t[Law::tangential::kLaneParams];
-        for (int k = 0; k < Law::tangential::kLaneParams; ++k)
-          q_t[k] = b.param[Law::kNormalParams + k][a];
-        C::release(q_t, r.xi + kHistory * q, lost);
-      }
-      if constexpr (F::kTangential) vec3(r.nxft, q).setZero();
+      end_lane(r, q, b, a, lost);
     }
     return lost;
+  }
+
+  // A lane whose contact has just opened (rare: out of line, to keep the store loop's registers).
+  [[gnu::noinline]] static void end_lane(const Results& r, Index q, const Block& b, int a,
+                                         double& lost) {
+    C::template end<F::kTangential>(r, q, b.param_column_tangential(a).data(), lost);  // (no roughness here)
   }
 
   static void store(const ContactView& c, const Index* act, int len, const Block& b) {
     // The pointers as locals: the byte stores (touch, loaded) may alias anything in memory,
     // and gcc would reload each pointer from `c` after every one of them.
-    const Results pairs{c.touch, c.overlap, c.force, c.nxft, c.xi};
+    const Results pairs = C::pair_results(c);
     const Index *own = c.own, *par = c.par;
     std::uint8_t* loaded = c.loaded;
     double* diss = c.diss;
@@ -223,7 +223,7 @@ struct Blocked {
       }
     }
     const bool bad = evaluate<false>(b, scan, len, c.dt, fmax);  // (the scan is not read)
-    const Results walls{c.wtouch, c.woverlap, c.wforce, c.wnxft, c.wxi};
+    const Results walls = C::wall_results(c);
     for (int a = 0; a < len; ++a) {
       const Index i = c.wown[e[a]];
       const double lost = store_lane(walls, e[a], b, a, c.dt);

@@ -25,11 +25,6 @@ struct Contacts {
     dissipated += Law::tangential::elastic_energy(q, xi);
     std::fill(xi, xi + Law::history_width, 0.0);
   }
-  static void release(const PairParams& p, double* xi, double& dissipated) {
-    double q[Law::tangential::kLaneParams];
-    Law::tangential::pack(p, q);
-    release(q, xi, dissipated);
-  }
 
   // Evaluates the law on geometry g with the entry's stored history; returns the result.
   TSUBU_INLINE static ContactResult evaluate(const ContactGeometry& g, const PairParams& p,
@@ -58,16 +53,44 @@ struct Contacts {
     return contact_velocity(n, vrel, {0, 0, 0}, vn);
   }
 
-  // Ends a pair contact: its results go to zero and its spring energy is booked as lost.
+  // Where one kind of entry (near pairs, near walls) keeps its results.
+  struct Results {
+    std::uint8_t* touch;
+    double *overlap, *force, *nxft, *roll, *xi;
+  };
+  static Results pair_results(const ContactView& c) {
+    return {c.touch, c.overlap, c.force, c.nxft, c.roll, c.xi};
+  }
+  static Results wall_results(const ContactView& c) {
+    return {c.wtouch, c.woverlap, c.wforce, c.wnxft, c.wroll, c.wxi};
+  }
+  // Pairs keep n x F where the law has friction or roughness; walls where it has friction.
+  static constexpr bool kPairMoment = F::kTangential || F::kRough, kWallMoment = F::kTangential;
+
+  // Ends a contact: its results go to zero and its tangential spring's energy is added to
+  // `lost` (q: the law's packed tangential parameters).
+  template <bool kMoment>
+  TSUBU_INLINE static void end(const Results& r, Index e, const double* q, double& lost) {
+    r.touch[e] = 0;
+    r.overlap[e] = 0;
+    vec3(r.force, e).setZero();
+    if constexpr (F::kHistory) release(q, r.xi + Law::history_width * e, lost);
+    if constexpr (kMoment) vec3(r.nxft, e).setZero();
+    if constexpr (F::kRolling) vec3(r.roll, e).setZero();
+    (void)q;
+  }
+  template <bool kMoment>
+  static void end(const Results& r, Index e, const PairParams& p, double& lost) {
+    double q[Law::tangential::kLaneParams > 0 ? Law::tangential::kLaneParams : 1];
+    Law::tangential::pack(p, q);
+    end<kMoment>(r, e, q, lost);
+  }
+
+  // Ends a pair contact; a rough pair also loses what its facet spring still holds.
   static double end_pair(const ContactView& c, Index q, const PairParams& params, const Vec3& d,
                          double rs, double dist2) {
     double lost = 0;
-    c.touch[q] = 0;
-    c.overlap[q] = 0;
-    vec3(c.force, q).setZero();
-    if constexpr (F::kHistory) release(params, c.xi + Law::history_width * q, lost);
-    if constexpr (F::kTangential || F::kRough) vec3(c.nxft, q).setZero();
-    if constexpr (F::kRolling) vec3(c.roll, q).setZero();
+    end<kPairMoment>(pair_results(c), q, params, lost);
     if constexpr (F::kRough) {
       if (params.roughness > 0) {  // a facet spring still loaded is lost with it
         const double o = Rough<Law>::pair_overlap(c.rough + F::kRoughWidth * q, d, rs - std::sqrt(dist2));
@@ -91,8 +114,8 @@ struct Contacts {
     const PairParams& params = (*c.table)(c.mat[i], c.mat[j]);
     if (dist2 >= c.cut2[q]) return end_pair(c, q, params, d, rs, dist2);  // (1.10)
     ContactGeometry g;
-    const double dist = dist2 * inv_dist;
-    g.delta = rs - dist;
+    const double overlap = pair_overlap(ri, rj, dist2, inv_dist);
+    g.delta = overlap;
     const Vec3 n = d * inv_dist;
     g.n = n;
     excess = std::max(excess, g.delta - c.limit * std::min(ri, rj));
@@ -100,8 +123,8 @@ struct Contacts {
     if constexpr (F::kRough) g.m_eff = c.m[i] * c.m[j] / (c.m[i] + c.m[j]);
     const Vec3 vrel = vec3(c.v, i) - vec3(c.v, j);
     if constexpr (F::kTorque) {
-      g.ci = ri - 0.5 * g.delta;
-      g.cj = rj - 0.5 * g.delta;
+      g.ci = contact_lever(ri, g.delta);
+      g.cj = contact_lever(rj, g.delta);
     }
     bool tilted = false;
     if constexpr (F::kRough) {
@@ -137,7 +160,7 @@ struct Contacts {
     }
     ContactResult res = evaluate(g, params, dt, c.xi + Law::history_width * q);
     c.touch[q] = 1;
-    c.overlap[q] = rs - dist;  // geometric: it sets the levers c = r - overlap/2
+    c.overlap[q] = overlap;  // geometric: it sets the levers c = r - overlap/2
     vec3(c.force, q) = res.force;
     // (1.19) with the contact-point lever c_i along the line of centres; with a tilted normal
     // the whole force has a moment about the centres (n x F), which keeps angular momentum exact.
@@ -154,7 +177,7 @@ struct Contacts {
   // set in `ci`): returns v_n; sets the tangential velocity (1.12) where the law has one.
   static double wall_approach(const ContactView& c, const Plane& P, Index i, const Vec3& n,
                               double delta, double& ci, Vec3& vt) {
-    ci = c.r[i] - 0.5 * delta;
+    ci = contact_lever(c.r[i], delta);
     Vec3 vrel = vec3(c.v, i);
     if (c.moving) vrel -= P.velocity_at(Plane::contact_point(vec3(c.x, i), ci, n));
     const double vn = vrel.dot(n);
@@ -184,14 +207,7 @@ struct Contacts {
     }
     if (delta <= 0) {
       double lost = 0;
-      if (c.wtouch[e]) {
-        c.wtouch[e] = 0;
-        c.woverlap[e] = 0;
-        vec3(c.wforce, e).setZero();
-        if constexpr (F::kHistory) release(params, c.wxi + Law::history_width * e, lost);
-        if constexpr (F::kTangential) vec3(c.wnxft, e).setZero();
-        if constexpr (F::kRolling) vec3(c.wroll, e).setZero();
-      }
+      if (c.wtouch[e]) end<kWallMoment>(wall_results(c), e, params, lost);
       return lost;
     }
     ContactGeometry g;

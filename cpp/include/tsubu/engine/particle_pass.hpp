@@ -81,7 +81,7 @@ struct ParticlePass {
       F = V4(M4(F) & keep) + sign[kind] * load4(force[kind] + 3 * e);
       std::memcpy(out + 8 * slot, &F, sizeof F);
       if constexpr (Features<Law>::kTangential) {  // (1.19): both sides take -(r - overlap/2) n x F_t
-        const double lever = rads[slot] - 0.5 * overlap[kind][e];
+        const double lever = contact_lever(rads[slot], overlap[kind][e]);
         T = V4(M4(T) & keep) - lever * load4(moment[kind] + 3 * e);
         std::memcpy(out + 8 * slot + 4, &T, sizeof T);
       }
