@@ -436,14 +436,14 @@ void Simulation::size_entry_buffers() {
 }
 
 void Simulation::cache_near_terms() {
-  fit(near_eta_, near_partner_.size());
+  fit(near_damping_, near_partner_.size());
   const CompiledLaw& law = this->law();
   const double *mass = particles_.mass.data();
   const int* material = particles_.material.data();
   for (std::size_t q = 0; q < near_partner_.size(); ++q) {
     const Index i = near_owner_[q], j = near_partner_[q];
     const double m_eff = mass[i] * mass[j] / (mass[i] + mass[j]);
-    near_eta_[q] = law.damping_coefficient(pairs_(material[i], material[j]), m_eff);
+    near_damping_[q] = law.damping_term(pairs_(material[i], material[j]), m_eff);
   }
 }
 

@@ -16,7 +16,7 @@ CompiledLaw compile() {
           &Law::name,
           &Law::critical_time_step,
           &Law::contact_duration,
-          &Law::damping_coefficient,
+          &Law::damping_term,
           &Law::normal_energy,
           &Law::elastic_force,
           &Law::tangential_energy,

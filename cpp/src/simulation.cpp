@@ -680,7 +680,7 @@ std::vector<std::pair<std::string, std::size_t>> Simulation::memory_bytes() cons
       {"particles", particles_.bytes() + bytes(index_of_, busy_, loaded_, sum_offset_)},
       {"verlet list", bytes(pair_offset_, pair_partner_)},
       {"near list", bytes(near_offset_, near_owner_, near_partner_, near_rev_offset_, near_rev_,
-                          near_cut2_, near_eta_, sum_entry_) +
+                          near_cut2_, near_damping_, sum_entry_) +
                         pair_state_.bytes()},
       {"walls", bytes(wall_offset_, wall_index_, wall_owner_, wall_near_offset_, wall_near_) +
                     wall_state_.bytes()},

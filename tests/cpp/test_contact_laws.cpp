@@ -25,7 +25,7 @@ ContactGeometry touching(double delta, double vn, const Vec3& vt) {
   g.vn = vn;
   g.vt = vt;
   g.m_eff = 1e-6;
-  g.eta_n = 0;
+  g.damping = 0;
   return g;
 }
 
@@ -135,7 +135,7 @@ void test_law_combination() {
   static_assert(
       ContactLaw<HookeNormal, RestitutionDamping, TangentialRotate, NoRolling, NoRoughness>::has_history);
   ContactGeometry g = touching(1e-6, -0.01, Vec3(1e-3, 0, 0));
-  g.eta_n = Frictionless::damping_coefficient(p, g.m_eff);
+  g.damping = Frictionless::damping_term(p, g.m_eff);
   Frictionless::History none;
   ContactResult res;
   Frictionless::evaluate(g, p, 1e-6, none, res);

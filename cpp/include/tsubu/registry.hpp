@@ -58,7 +58,7 @@ struct CompiledLaw {
   std::string (*name)();
   double (*critical_time_step)(const PairParams&, double m_eff);
   double (*contact_duration)(const PairParams&, double m_eff);
-  double (*damping_coefficient)(const PairParams&, double m_eff);
+  double (*damping_term)(const PairParams&, double m_eff);
   double (*normal_energy)(const PairParams&, double overlap);
   double (*elastic_force)(const PairParams&, double overlap);  // the normal spring's, no dashpot
   double (*tangential_energy)(const PairParams&, const double* history);

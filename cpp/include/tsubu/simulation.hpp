@@ -246,9 +246,9 @@ class Simulation {
   Array<Index> pair_offset_, pair_partner_;
   Array<Index> near_offset_, near_owner_, near_partner_, near_rev_offset_, near_rev_;
   Array<double> near_cut2_;  // (r_i + r_j)^2
-  // The normal dashpot of each near pair, where the damping law's coefficient does not depend on
-  // the overlap (RestitutionDamping::kPerEntry): a square root saved per contact and step.
-  Array<double> near_eta_;
+  // The damping law's term of each near pair (ContactLaw::damping_term: for RestitutionDamping
+  // the dashpot itself), fixed while the pair is in the list: a square root saved per contact.
+  Array<double> near_damping_;
   // Particles with near-pair or near-wall entries: the only ones whose contacts can be summed;
   // and, per step, 1 for those with an entry in contact (set by the contact pass, cleared by
   // the particle pass).
@@ -324,7 +324,7 @@ class Simulation {
   void build_sum_entries();
   // near_reach_below_, near_reach_above_ and max_entries_ from the near lists.
   void measure_near();
-  // near_eta_ from the current pair table (after a refresh, or when parameters change).
+  // near_damping_ from the current pair table (after a refresh, or when parameters change).
   void cache_near_terms();
   // The energy a contact loses when it opens (its tangential spring; the engine releases).
   double spring_energy(int material_a, int material_b, const Array<double>& xi,

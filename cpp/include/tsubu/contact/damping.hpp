@@ -18,8 +18,6 @@ struct RestitutionDamping {
     // (B.9) as eta_n = damping_factor sqrt(m_eff k_n): a contact then needs one square root.
     double damping_factor = 0;
   };
-  // The coefficient does not depend on the overlap: the loop computes it once per near entry.
-  static constexpr bool kPerEntry = true;
 
   template <class M>
   static void mix(const M& a, const M& b, Params& p) {
@@ -33,6 +31,12 @@ struct RestitutionDamping {
   static double coefficient(const Params& p, double m_eff, double k) {
     return p.damping_factor * std::sqrt(m_eff * k);
   }
+  // A damping law splits its coefficient into a term fixed for the life of a near entry (the
+  // loop computes it once per entry and keeps it: a square root saved per contact and step) and
+  // the dashpot at overlap delta, from that term and the normal law's lane parameters qn.
+  // Here the dashpot does not depend on the overlap: the term is eta_n itself.
+  static double entry_term(const Params& p, double m_eff, double k) { return coefficient(p, m_eff, k); }
+  TSUBU_INLINE static double lane(double term, const double* /*qn*/, double /*delta*/) { return term; }
 };
 
 }  // namespace tsubu

@@ -40,17 +40,20 @@ struct ContactLaw {
     Tangential::pack(p, q + kNormalParams);
   }
 
-  // The normal dashpot of a contact of reduced mass m_eff. With a damping law whose coefficient
-  // does not depend on the overlap (kPerEntry), the loop computes it once per near entry.
-  static double damping_coefficient(const PairParams& p, double m_eff) {
-    return Damping::coefficient(p, m_eff, Normal::stiffness(p));
+  // The damping law's term for a contact of reduced mass m_eff, fixed while the pair is in the
+  // near list (the loop keeps it per entry); lane() turns it into the dashpot at an overlap.
+  static double damping_term(const PairParams& p, double m_eff) {
+    return Damping::entry_term(p, m_eff, Normal::stiffness(p));
   }
 
   // The normal and tangential laws of one contact in lane form (plain doubles, no branches): a
   // block of contacts runs it in a loop the compiler vectorises. Sets F (on i), n x F_t and the
-  // dissipated power; updates the tangential displacement xi. q: the packed parameters.
-  TSUBU_INLINE static void lane(L3 n, L3 vt, double delta, double vn, double eta_n, const double* q,
-                                double dt, L3& xi, L3& force, L3& n_cross_ft, double& power) {
+  // dissipated power; updates the tangential displacement xi. q: the packed parameters;
+  // damping: the entry's damping_term.
+  TSUBU_INLINE static void lane(L3 n, L3 vt, double delta, double vn, double damping,
+                                const double* q, double dt, L3& xi, L3& force, L3& n_cross_ft,
+                                double& power) {
+    const double eta_n = Damping::lane(damping, q, delta);
     const double fn = Normal::lane(q, delta, eta_n, vn);
     force = fn * n;
     power = eta_n * vn * vn;
@@ -73,7 +76,7 @@ struct ContactLaw {
     pack(p, q);
     L3 xi{0, 0, 0}, force, nxft{0, 0, 0};
     if constexpr (has_history) xi = {h.xi[0], h.xi[1], h.xi[2]};
-    lane(lanes(g.n), lanes(g.vt), g.delta, g.vn, g.eta_n, q, dt, xi, force, nxft, out.power);
+    lane(lanes(g.n), lanes(g.vt), g.delta, g.vn, g.damping, q, dt, xi, force, nxft, out.power);
     if constexpr (has_history) {
       h.xi[0] = xi.x;
       h.xi[1] = xi.y;
@@ -81,7 +84,7 @@ struct ContactLaw {
     } else {
       (void)h;
     }
-    out.fn = Normal::lane(q, g.delta, g.eta_n, g.vn);
+    out.fn = Normal::lane(q, g.delta, Damping::lane(g.damping, q, g.delta), g.vn);
     out.force = vec(force);
     out.n_cross_ft = vec(nxft);
     if constexpr (Rolling::enabled) out.roll = Rolling::evaluate(g, p, std::abs(out.fn), dt);
@@ -112,7 +115,7 @@ struct ContactLaw {
   // ---- time-step bounds --------------------------------------------------------------------
   // The normal oscillation's angular frequency (B.3) for reduced mass m.
   static double oscillation_rate(const PairParams& p, double m) {
-    return Normal::oscillation_rate(p, m, damping_coefficient(p, m));
+    return Normal::oscillation_rate(p, m, Damping::coefficient(p, m, Normal::stiffness(p)));
   }
   // How long an impact of reduced mass m lasts (B.5).
   static double contact_duration(const PairParams& p, double m) {
@@ -121,7 +124,7 @@ struct ContactLaw {
   // The largest stable dt of symplectic Euler for a contact of reduced mass m (2.31), with the
   // tangential spring where the law has one.
   static double critical_time_step(const PairParams& p, double m) {
-    const double eta_n = damping_coefficient(p, m);
+    const double eta_n = Damping::coefficient(p, m, Normal::stiffness(p));
     double bound = euler_bound(m, Normal::stiffness(p), eta_n);
     // A sphere that can roll moves its contact point under a tangential force as a mass m/3.5
     // would (1/m + c^2/I = 3.5/m).

@@ -35,7 +35,7 @@ struct Blocked {
     // vectorised loop.
     double nx[kBlock], ny[kBlock], nz[kBlock], vtx[kBlock], vty[kBlock], vtz[kBlock], vn[kBlock];
     double vrx[kBlock], vry[kBlock], vrz[kBlock], spx[kBlock], spy[kBlock], spz[kBlock];
-    double delta[kBlock], eta[kBlock];
+    double delta[kBlock], damping[kBlock];  // overlap, the damping law's term
     double param[kParams][kBlock];  // the law's packed pair parameters, one column each
     double xix[kBlock], xiy[kBlock], xiz[kBlock];
     double fx[kBlock], fy[kBlock], fz[kBlock], tx[kBlock], ty[kBlock], tz[kBlock], power[kBlock];
@@ -92,7 +92,7 @@ struct Blocked {
       }
       b.inside[a] = dist2 < c.cut2[q];  // (1.10); else the contact has just opened
       if (b.inside[a]) excess = std::max(excess, delta - c.limit * std::min(ri, rj));
-      b.delta[a] = delta, b.eta[a] = c.eta[q];
+      b.delta[a] = delta, b.damping[a] = c.damping[q];
       if constexpr (!kSame) b.put_params(a, (*c.table)(c.mat[i], c.mat[j]));
       if constexpr (F::kHistory) {
         const double* xi = c.xi + kHistory * q;
@@ -131,7 +131,7 @@ struct Blocked {
       for (int k = 0; k < kParams; ++k) q[k] = b.param[k][a];
       L3 xi{b.xix[a], b.xiy[a], b.xiz[a]}, f, t{0, 0, 0};
       double power;
-      Law::lane(n, vt, b.delta[a], vn, b.eta[a], q, dt, xi, f, t, power);
+      Law::lane(n, vt, b.delta[a], vn, b.damping[a], q, dt, xi, f, t, power);
       b.xix[a] = xi.x, b.xiy[a] = xi.y, b.xiz[a] = xi.z;
       b.fx[a] = f.x, b.fy[a] = f.y, b.fz[a] = f.z;
       b.tx[a] = t.x, b.ty[a] = t.y, b.tz[a] = t.z;
@@ -215,7 +215,7 @@ struct Blocked {
       const double vn = C::wall_approach(c, P, i, n, delta, ci, vt);
       b.nx[a] = n.x(), b.ny[a] = n.y(), b.nz[a] = n.z();
       b.vtx[a] = vt.x(), b.vty[a] = vt.y(), b.vtz[a] = vt.z();
-      b.delta[a] = delta, b.vn[a] = vn, b.eta[a] = Law::damping_coefficient(p, c.m[i]);
+      b.delta[a] = delta, b.vn[a] = vn, b.damping[a] = Law::damping_term(p, c.m[i]);
       b.put_params(a, p);
       if constexpr (F::kHistory) {
         const double* xi = c.wxi + kHistory * e[a];

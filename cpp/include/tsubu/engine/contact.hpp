@@ -119,7 +119,7 @@ struct Contacts {
     const Vec3 n = d * inv_dist;
     g.n = n;
     excess = std::max(excess, g.delta - c.limit * std::min(ri, rj));
-    g.eta_n = c.eta[q];
+    g.damping = c.damping[q];
     if constexpr (F::kRough) g.m_eff = c.m[i] * c.m[j] / (c.m[i] + c.m[j]);
     const Vec3 vrel = vec3(c.v, i) - vec3(c.v, j);
     if constexpr (F::kTorque) {
@@ -215,7 +215,7 @@ struct Contacts {
     g.delta = delta;
     excess = std::max(excess, delta - c.limit * ri);
     g.m_eff = c.m[i];
-    g.eta_n = Law::damping_coefficient(params, g.m_eff);
+    g.damping = Law::damping_term(params, g.m_eff);
     g.cj = 0;
     g.vn = wall_approach(c, P, i, n, delta, g.ci, g.vt);
     if constexpr (F::kRolling) {
