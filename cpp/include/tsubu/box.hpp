@@ -19,7 +19,10 @@ struct OpenBox {
   TSUBU_INLINE static L3 displacement(const double* xi, const double* xj) {
     return {xi[0] - xj[0], xi[1] - xj[1], xi[2] - xj[2]};
   }
-  TSUBU_INLINE static Vec3 displacement(const Vec3& xi, const Vec3& xj) { return xi - xj; }
+  template <class A, class B>
+  TSUBU_INLINE static Vec3 displacement(const Eigen::MatrixBase<A>& xi, const Eigen::MatrixBase<B>& xj) {
+    return xi - xj;
+  }
   // Brings positions back into the box (open: nothing to do).
   static void wrap(double*, std::size_t) {}
   // The region the cell grid must cover: the bounding box of the n positions x.

@@ -175,7 +175,7 @@ struct Contacts {
 
   // A wall contact's approach along n at the contact point x_i - c n (lever c = r - delta/2,
   // set in `ci`): returns v_n; sets the tangential velocity (1.12) where the law has one.
-  static double wall_approach(const ContactView& c, const Plane& P, Index i, const Vec3& n,
+  TSUBU_INLINE static double wall_approach(const ContactView& c, const Plane& P, Index i, const Vec3& n,
                               double delta, double& ci, Vec3& vt) {
     ci = contact_lever(c.r[i], delta);
     Vec3 vrel = vec3(c.v, i);

@@ -22,13 +22,20 @@ struct Plane {
   bool moving() const { return velocity.squaredNorm() > 0 || angular_velocity.squaredNorm() > 0; }
 
   // Signed distance of x from the plane along direction `dir` (the normal, or a rough facet's
-  // tilted normal), positive on the spheres' side (3.1).
-  TSUBU_INLINE double distance(const Vec3& x, const Vec3& dir) const { return dir.dot(x - point); }
-  TSUBU_INLINE double distance(const Vec3& x) const { return distance(x, normal); }
+  // tilted normal), positive on the spheres' side (3.1). (Positions come as any Eigen
+  // expression, a Map into the particle arrays most often: no copy to a Vec3 first.)
+  template <class X>
+  TSUBU_INLINE double distance(const Eigen::MatrixBase<X>& x, const Vec3& dir) const {
+    return dir.dot(x - point);
+  }
+  template <class X>
+  TSUBU_INLINE double distance(const Eigen::MatrixBase<X>& x) const { return distance(x, normal); }
   // Overlap of a sphere of radius r at x, r - distance (3.1): signed, the plane is a half-space.
-  TSUBU_INLINE double overlap(const Vec3& x, double r) const { return r - distance(x); }
+  template <class X>
+  TSUBU_INLINE double overlap(const Eigen::MatrixBase<X>& x, double r) const { return r - distance(x); }
   // The normal at the point of the wall nearest x (a plane: everywhere the same).
-  TSUBU_INLINE const Vec3& normal_at(const Vec3&) const { return normal; }
+  template <class X>
+  TSUBU_INLINE const Vec3& normal_at(const Eigen::MatrixBase<X>&) const { return normal; }
   // The contact point of a sphere at x: lever c back along the normal n.
   TSUBU_INLINE static Vec3 contact_point(const Vec3& x, double c, const Vec3& n) { return x - c * n; }
   // The wall's velocity at point y.
@@ -36,7 +43,10 @@ struct Plane {
     return velocity + angular_velocity.cross(y - point);
   }
   // Whether a sphere of radius r at x is within `reach` of touching (or behind the plane).
-  TSUBU_INLINE bool near(const Vec3& x, double r, double reach) const { return distance(x) < r + reach; }
+  template <class X>
+  TSUBU_INLINE bool near(const Eigen::MatrixBase<X>& x, double r, double reach) const {
+    return distance(x) < r + reach;
+  }
 
   // One step of the wall's motion.
   void advance(double dt) {
