@@ -15,10 +15,8 @@ namespace tsubu {
 struct OpenBox {
   static constexpr bool periodic = false;
 
-  // x_i - x_j, from j to i.
-  TSUBU_INLINE static L3 displacement(const double* xi, const double* xj) {
-    return {xi[0] - xj[0], xi[1] - xj[1], xi[2] - xj[2]};
-  }
+  // x_i - x_j, from j to i (positions as any Eigen expression: Maps into the particle arrays
+  // most often, read without a copy).
   template <class A, class B>
   TSUBU_INLINE static Vec3 displacement(const Eigen::MatrixBase<A>& xi, const Eigen::MatrixBase<B>& xj) {
     return xi - xj;
