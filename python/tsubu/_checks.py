@@ -79,6 +79,15 @@ def radii(name: str, value, n: int) -> np.ndarray:
     return a
 
 
+def choice(name: str, value, options) -> str:
+    """One of the names in ``options`` (for the string-valued arguments, ``_core.choices``)."""
+    if value not in options:
+        names = [f"'{o}'" for o in options]
+        listing = ", ".join(names[:-1]) + " or " + names[-1] if len(names) > 1 else names[0]
+        raise ValueError(f"{name} must be {listing}, got {value!r}")
+    return value
+
+
 def whole(name: str, value, *, minimum: int = 0) -> int:
     if isinstance(value, bool) or not isinstance(value, numbers.Integral):
         raise TypeError(f"{name} must be an integer, got {value!r}")

@@ -2,9 +2,10 @@
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 
-from . import _checks
+from . import _checks, _core
 
 
 @dataclass(frozen=True, eq=False)
@@ -85,12 +86,20 @@ class Material:
              _checks.positive("tangential_damping", self.tangential_damping, allow_zero=True))
         set_(self, "roughness",
              _checks.in_range("roughness", self.roughness, 0.0, 90.0, lo_open=False, hi_open=True))
-        if self.roughness_distribution not in ("normal", "uniform"):
-            raise ValueError(f"roughness_distribution must be 'normal' or 'uniform', got {self.roughness_distribution!r}")
+        _checks.choice("roughness_distribution", self.roughness_distribution,
+                       _core.choices["roughness_distribution"])
         if self.roughness_distribution == "uniform" and 3**0.5 * self.roughness >= 90.0:
             raise ValueError(f"roughness with a uniform distribution must be < 90/sqrt(3) degrees "
                              f"(its range is +-sqrt(3) sigma), got {self.roughness!r}")
-        if self.shadow not in ("reject", "weighted", "none"):
-            raise ValueError(f"shadow must be 'reject', 'weighted' or 'none', got {self.shadow!r}")
+        _checks.choice("shadow", self.shadow, _core.choices["shadow"])
         if self.name is not None and not isinstance(self.name, str):
             raise TypeError(f"name must be a string, got {self.name!r}")
+
+    def _to_core(self) -> "_core.Material":
+        """The compiled core's Material: every field the core binds (``_core.Material.fields``),
+        with the roughness in radians."""
+        core = _core.Material()
+        for name in _core.Material.fields:
+            value = getattr(self, name)
+            setattr(core, name, math.radians(value) if name == "roughness" else value)
+        return core

@@ -91,11 +91,9 @@ class Simulation:
             raise ValueError(f"seed must be < 2**64, got {seed!r}")
         if skin is not None:
             self._core.skin_option = _checks.positive("skin", skin)
-        if tangential_history not in ("rotate", "literal"):
-            raise ValueError(f"tangential_history must be 'rotate' or 'literal', got {tangential_history!r}")
+        _checks.choice("tangential_history", tangential_history, _core.choices["tangential_history"])
         self._core.history_rule = tangential_history
-        if slip_rule not in ("frozen", "truncate"):
-            raise ValueError(f"slip_rule must be 'frozen' or 'truncate', got {slip_rule!r}")
+        _checks.choice("slip_rule", slip_rule, _core.choices["slip_rule"])
         if slip_rule == "truncate" and tangential_history != "rotate":
             raise ValueError("slip_rule='truncate' needs tangential_history='rotate', got "
                              f"{tangential_history!r}")
@@ -169,10 +167,7 @@ class Simulation:
             raise TypeError(f"{name} must be a tsubu.Material, got {material!r}")
         key = id(material)
         if key not in self._material_index:
-            m = material
-            self._material_index[key] = self._core.add_material(
-                m.density, m.kn, m.kt, m.restitution, m.friction, m.rolling_friction,
-                m.tangential_damping, math.radians(m.roughness), m.roughness_distribution, m.shadow)
+            self._material_index[key] = self._core.add_material(material._to_core())
             self._materials.append(material)  # keeps id(material) valid
         return self._material_index[key]
 
@@ -194,22 +189,23 @@ class Simulation:
             elif key == "roughness":
                 p[key] = _checks.in_range(key, value, 0.0, 90.0, lo_open=False, hi_open=True)
             elif key in ("roughness_distribution", "shadow"):
-                p[key] = value  # checked by the core, which names the accepted values
+                p[key] = _checks.choice(key, value, _core.choices[key])
             else:
                 p[key] = _checks.positive(key, value, allow_zero=key != "kn")
         if p["roughness_distribution"] == "uniform" and 3**0.5 * p["roughness"] >= 90.0:
             raise ValueError(f"roughness with a uniform distribution must be < 90/sqrt(3) degrees "
                              f"(its range is +-sqrt(3) sigma), got {p['roughness']!r}")
-        self._core.set_pair_parameters(a, b, p["kn"], p["kt"], p["restitution"], p["friction"],
-                                       p["rolling_friction"], p["tangential_damping"],
-                                       math.radians(p["roughness"]), p["roughness_distribution"],
-                                       p["shadow"])
+        params = _core.PairParams()
+        for name in _core.PairParams.fields:
+            setattr(params, name, math.radians(p[name]) if name == "roughness" else p[name])
+        self._core.set_pair_parameters(a, b, params)
 
     def pair_parameters(self, material_a: Material, material_b: Material) -> dict:
         """The contact parameters used between two materials (mixed, or as overridden);
         roughness in degrees."""
-        p = self._core.pair_parameters(self._material(material_a, "material_a"),
-                                       self._material(material_b, "material_b"))
+        params = self._core.pair_parameters(self._material(material_a, "material_a"),
+                                            self._material(material_b, "material_b"))
+        p = {name: getattr(params, name) for name in _core.PairParams.fields}
         p["roughness"] = math.degrees(p["roughness"])
         return p
 

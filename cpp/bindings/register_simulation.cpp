@@ -1,0 +1,99 @@
+// tsubu::Simulation: set-up, options and time stepping.
+#include "bindings.hpp"
+
+namespace tsubu_py {
+
+namespace {
+
+using Sim = tsubu::Simulation;
+
+// An option of tsubu::Options as a read-write property.
+template <class T>
+void option(py::class_<Sim>& cls, const char* name, T tsubu::Options::*member) {
+  cls.def_property(
+      name, [member](const Sim& s) { return s.options().*member; },
+      [member](Sim& s, T v) { s.options().*member = v; });
+}
+// An enum option, as its name.
+template <class E>
+void enum_option(py::class_<Sim>& cls, const char* name, E tsubu::Options::*member) {
+  cls.def_property(
+      name, [member](const Sim& s) { return name_of(s.options().*member); },
+      [member](Sim& s, const std::string& v) { s.options().*member = parse<E>(v); });
+}
+
+}  // namespace
+
+void register_simulation(py::class_<Sim>& cls) {
+  using namespace pybind11::literals;
+  cls.def(py::init<>())
+      .def("add_material", &Sim::add_material, "material"_a)
+      .def("set_pair_parameters", &Sim::set_pair_parameters, "a"_a, "b"_a, "params"_a)
+      .def("pair_parameters", &Sim::pair_parameters, "a"_a, "b"_a)
+      .def("reserve", &Sim::reserve, "count"_a)
+      .def(
+          "add_spheres",
+          [](Sim& s, const Array& x, const Array& r, const IntArray& mat, std::optional<Array> v,
+             std::optional<Array> w) {
+            const std::size_t n = static_cast<std::size_t>(r.shape(0));
+            check_n3(x, n, "positions");
+            if (v) check_n3(*v, n, "velocities");
+            if (w) check_n3(*w, n, "angular_velocities");
+            if (static_cast<std::size_t>(mat.size()) != n)
+              throw py::value_error("materials must have one entry per sphere");
+            return s.add_spheres(n, x.data(), r.data(), mat.data(), data_or_null(v),
+                                 data_or_null(w));
+          },
+          "positions"_a, "radii"_a, "materials"_a, "velocities"_a, "angular_velocities"_a)
+      .def(
+          "add_plane",
+          [](Sim& s, std::array<double, 3> point, std::array<double, 3> normal, int mat,
+             std::array<double, 3> vel, std::array<double, 3> angvel) {
+            return s.add_plane(to_vec3(point), to_vec3(normal), mat, to_vec3(vel), to_vec3(angvel));
+          },
+          "point"_a, "normal"_a, "material"_a, "velocity"_a, "angular_velocity"_a)
+      .def(
+          "set_plane_motion",
+          [](Sim& s, int wall, std::array<double, 3> vel, std::array<double, 3> angvel) {
+            s.set_plane_motion(wall, to_vec3(vel), to_vec3(angvel));
+          },
+          "wall"_a, "velocity"_a, "angular_velocity"_a)
+      .def(
+          "plane",
+          [](const Sim& s, int wall) {
+            const tsubu::Plane& p = s.plane(wall);
+            return py::dict("point"_a = from_vec3(p.point), "normal"_a = from_vec3(p.normal),
+                            "velocity"_a = from_vec3(p.velocity),
+                            "angular_velocity"_a = from_vec3(p.angular_velocity),
+                            "material"_a = p.material);
+          },
+          "wall"_a)
+      .def_property_readonly("plane_count", &Sim::plane_count);
+
+  cls.def_property(
+      "gravity", [](const Sim& s) { return from_vec3(s.options().gravity); },
+      [](Sim& s, std::array<double, 3> g) { s.options().gravity = to_vec3(g); });
+  option(cls, "dt", &tsubu::Options::dt);
+  option(cls, "parallel_min", &tsubu::Options::parallel_min);
+  option(cls, "seed", &tsubu::Options::seed);
+  option(cls, "threads", &tsubu::Options::threads);
+  option(cls, "skin_option", &tsubu::Options::skin);
+  option(cls, "max_overlap", &tsubu::Options::max_overlap);
+  option(cls, "initial_overlap", &tsubu::Options::initial_overlap);
+  option(cls, "allow_unstable_dt", &tsubu::Options::allow_unstable_dt);
+  option(cls, "rebuild_every_step", &tsubu::Options::rebuild_every_step);
+  enum_option(cls, "history_rule", &tsubu::Options::history);
+  enum_option(cls, "slip_rule", &tsubu::Options::slip);
+
+  cls.def("critical_time_step", &Sim::critical_time_step)
+      .def("contact_duration", &Sim::contact_duration)
+      .def("default_time_step", &Sim::default_time_step)
+      .def("time_step", &Sim::time_step)
+      .def("run", &Sim::run, "steps"_a, py::call_guard<py::gil_scoped_release>())
+      .def_property_readonly("step_count", &Sim::step_count)
+      .def_property_readonly("time", &Sim::time)
+      .def("law_name", &Sim::law_name)
+      .def("threads_used", &Sim::threads_used);
+}
+
+}  // namespace tsubu_py
