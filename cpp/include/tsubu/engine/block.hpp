@@ -78,27 +78,36 @@ struct Blocked {
 
   template <bool kSame>
   static void gather(const ContactView& c, const Scan& s, int len, Block& b, double& excess) {
+    // The view's pointers as locals, and the largest excess in a local: the byte store to
+    // b.inside may alias anything, and gcc would reload each of them after it.
+    const Index *const own = c.own, *const par = c.par;
+    const double *const r = c.r, *const v = c.v, *const w = c.w, *const cut2 = c.cut2;
+    const double *const damping = c.damping, *const history = c.xi;
+    const double limit = c.limit;
+    double most = excess;
     for (int a = 0; a < len; ++a) {
-      const Index q = s.act[a], i = c.own[q], j = c.par[q];
-      const double ri = c.r[i], rj = c.r[j];
+      const Index q = s.act[a], i = own[q], j = par[q];
+      const double ri = r[i], rj = r[j];
       const double dist2 = s.d2[a], inv = s.inv[a];
       const double delta = pair_overlap(ri, rj, dist2, inv);
       const double ci = contact_lever(ri, delta), cj = contact_lever(rj, delta);
-      const L3 vrel = lanes(vec3(c.v, i) - vec3(c.v, j));
+      const L3 vrel = lanes(vec3(v, i) - vec3(v, j));
       b.vrx[a] = vrel.x, b.vry[a] = vrel.y, b.vrz[a] = vrel.z;
       if constexpr (F::kTangential) {
-        const L3 spin = C::spin_part(ci, lanes(vec3(c.w, i)), cj, lanes(vec3(c.w, j)));
+        const L3 spin = C::spin_part(ci, lanes(vec3(w, i)), cj, lanes(vec3(w, j)));
         b.spx[a] = spin.x, b.spy[a] = spin.y, b.spz[a] = spin.z;
       }
-      b.inside[a] = dist2 < c.cut2[q];  // (1.10); else the contact has just opened
-      if (b.inside[a]) excess = std::max(excess, delta - c.limit * std::min(ri, rj));
-      b.delta[a] = delta, b.damping[a] = c.damping[q];
+      const bool inside = dist2 < cut2[q];  // (1.10); else the contact has just opened
+      b.inside[a] = inside;
+      if (inside) most = std::max(most, delta - limit * std::min(ri, rj));
+      b.delta[a] = delta, b.damping[a] = damping[q];
       if constexpr (!kSame) b.put_params(a, (*c.table)(c.mat[i], c.mat[j]));
       if constexpr (F::kHistory) {
-        const double* xi = c.xi + kHistory * q;
+        const double* xi = history + kHistory * q;
         b.xix[a] = xi[0], b.xiy[a] = xi[1], b.xiz[a] = xi[2];
       }
     }
+    excess = most;
   }
 
   // The law over lanes [0, len) of a block of pairs (kPairs: the normal from the scan's x_ij and
@@ -171,8 +180,9 @@ struct Blocked {
   }
 
   // A lane whose contact has just opened (rare: out of line, to keep the store loop's registers).
-  [[gnu::noinline]] static void end_lane(const Results& r, Index q, const Block& b, int a,
-                                         double& lost) {
+  // (r by value: a reference would make the caller keep its pointers in memory, reloaded after
+  // every byte store.)
+  [[gnu::noinline]] static void end_lane(Results r, Index q, const Block& b, int a, double& lost) {
     C::template end<F::kTangential>(r, q, b.param_column_tangential(a).data(), lost);  // (no roughness here)
   }
 
