@@ -79,7 +79,7 @@ void test_tangential_stick_and_slip() {
 }
 
 void test_rotate_keeps_length() {
-  // DESIGN.md note 3: the stored displacement is turned into the new tangent plane, length kept.
+  // docs/physics.md: the stored displacement is turned into the new tangent plane, length kept.
   const PairParams p = params(0.5, 1e9);
   TangentialRotate::History h{{3e-9, 0, 4e-9}};  // 5e-9 long, partly along the new normal z
   double power = 0;
