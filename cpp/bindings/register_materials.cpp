@@ -31,11 +31,47 @@ void law_fields(py::class_<C>& cls, py::list& fields) {
   fields.append("shadow");
 }
 
+// C(**fields) and repr. The constructor default-constructs and assigns each keyword through the
+// bound property (so enum names go through the one table), never aggregate-initialises: the core
+// may move fields between its laws' parameter bases.
+template <class C>
+void keywords_and_repr(py::class_<C>& cls, const char* name) {
+  const std::string n = name;
+  cls.def(py::init([n](const py::kwargs& kw) {
+            py::object obj = py::cast(C());
+            const py::object fields = obj.attr("fields");
+            for (const auto& item : kw) {
+              const py::handle key = item.first, value = item.second;
+              if (!fields.contains(key))
+                throw py::type_error(n + "() got an unexpected keyword argument '" +
+                                     std::string(py::str(key)) + "'");
+              try {
+                py::setattr(obj, key, value);
+              } catch (py::error_already_set& e) {
+                if (!e.matches(PyExc_TypeError)) throw;
+                throw py::type_error(n + "() argument '" + std::string(py::str(key)) +
+                                     "' has the wrong type, got " +
+                                     std::string(py::repr(value)));
+              }
+            }
+            return obj.cast<C>();
+          }),
+          "Keywords: any of `fields`; the others keep their defaults");
+  cls.def("__repr__", [n](const py::object& self) {
+    std::string s = n + "(";
+    for (const auto& f : self.attr("fields")) {
+      if (s.back() != '(') s += ", ";
+      s += std::string(py::str(f)) + "=" + std::string(py::repr(self.attr(f)));
+    }
+    return s + ")";
+  });
+}
+
 }  // namespace
 
 void register_materials(py::module_& m) {
   py::class_<tsubu::Material> material(m, "Material", "One material (SI units, roughness in radians)");
-  material.def(py::init<>());
+  keywords_and_repr(material, "Material");
   py::list material_fields;
   material.def_readwrite("density", &tsubu::Material::density, "kg/m^3");
   material_fields.append("density");
@@ -44,7 +80,7 @@ void register_materials(py::module_& m) {
 
   py::class_<tsubu::PairParams> pair(m, "PairParams",
                                      "The contact parameters of one pair of materials");
-  pair.def(py::init<>());
+  keywords_and_repr(pair, "PairParams");
   py::list pair_fields;
   law_fields(pair, pair_fields);
   pair.attr("fields") = py::tuple(pair_fields);

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, fields
 
 from . import _checks, _core
 
@@ -73,33 +73,51 @@ class Material:
 
     def __post_init__(self) -> None:
         set_ = object.__setattr__
-        set_(self, "density", _checks.positive("density", self.density))
-        set_(self, "kn", _checks.positive("kn", self.kn))
-        kt = 2.0 / 7.0 * self.kn if self.kt is None else _checks.positive("kt", self.kt, allow_zero=True)
-        set_(self, "kt", kt)
-        set_(self, "restitution",
-             _checks.in_range("restitution", self.restitution, 0.0, 1.0, lo_open=True, hi_open=False))
-        set_(self, "friction", _checks.positive("friction", self.friction, allow_zero=True))
-        set_(self, "rolling_friction",
-             _checks.positive("rolling_friction", self.rolling_friction, allow_zero=True))
-        set_(self, "tangential_damping",
-             _checks.positive("tangential_damping", self.tangential_damping, allow_zero=True))
-        set_(self, "roughness",
-             _checks.in_range("roughness", self.roughness, 0.0, 90.0, lo_open=False, hi_open=True))
-        _checks.choice("roughness_distribution", self.roughness_distribution,
-                       _core.choices["roughness_distribution"])
-        if self.roughness_distribution == "uniform" and 3**0.5 * self.roughness >= 90.0:
-            raise ValueError(f"roughness with a uniform distribution must be < 90/sqrt(3) degrees "
-                             f"(its range is +-sqrt(3) sigma), got {self.roughness!r}")
-        _checks.choice("shadow", self.shadow, _core.choices["shadow"])
+        for name in _PARAMETERS:
+            value = getattr(self, name)
+            if name == "kt" and value is None:
+                value = 2.0 / 7.0 * self.kn  # kn comes first, already checked
+            set_(self, name, _check_field(name, value))
+        _check_uniform_range(self.roughness_distribution, self.roughness)
         if self.name is not None and not isinstance(self.name, str):
             raise TypeError(f"name must be a string, got {self.name!r}")
 
     def _to_core(self) -> "_core.Material":
-        """The compiled core's Material: every field the core binds (``_core.Material.fields``),
-        with the roughness in radians."""
-        core = _core.Material()
-        for name in _core.Material.fields:
-            value = getattr(self, name)
-            setattr(core, name, math.radians(value) if name == "roughness" else value)
-        return core
+        """The compiled core's Material (roughness in radians)."""
+        return _to_core(_core.Material, vars(self))
+
+
+# Checks and units of the parameters, shared by Material and Simulation.set_pair. The core's
+# classes list their own fields (_core.Material.fields, _core.PairParams.fields); tests/
+# test_bindings.py checks they are these.
+_PARAMETERS = tuple(f.name for f in fields(Material) if f.name != "name")
+
+
+def _check_field(name: str, value):
+    """One contact or bulk parameter in the Python API's units (roughness in degrees)."""
+    if name == "restitution":
+        return _checks.in_range(name, value, 0.0, 1.0, lo_open=True, hi_open=False)
+    if name == "roughness":
+        return _checks.in_range(name, value, 0.0, 90.0, lo_open=False, hi_open=True)
+    if name in _core.choices:
+        return _checks.choice(name, value, _core.choices[name])
+    return _checks.positive(name, value, allow_zero=name not in ("density", "kn"))
+
+
+def _check_uniform_range(distribution: str, roughness: float) -> None:
+    if distribution == "uniform" and 3**0.5 * roughness >= 90.0:
+        raise ValueError(f"roughness with a uniform distribution must be < 90/sqrt(3) degrees "
+                         f"(its range is +-sqrt(3) sigma), got {roughness!r}")
+
+
+def _to_core(cls, values):
+    """``cls`` (_core.Material or _core.PairParams) from a mapping of its fields in the Python
+    API's units."""
+    return cls(**{n: math.radians(values[n]) if n == "roughness" else values[n] for n in cls.fields})
+
+
+def _from_core(params) -> dict:
+    """A _core.PairParams (or Material) as a dict of its fields in the Python API's units."""
+    p = {n: getattr(params, n) for n in params.fields}
+    p["roughness"] = math.degrees(p["roughness"])
+    return p

@@ -9,7 +9,7 @@ import time as _time
 import numpy as np
 
 from . import _checks, _core
-from .material import Material
+from .material import Material, _check_field, _check_uniform_range, _from_core, _to_core
 
 
 class InstabilityError(RuntimeError):
@@ -184,30 +184,15 @@ class Simulation:
         for key, value in overrides.items():
             if key not in p:
                 raise TypeError(f"set_pair got an unknown parameter {key!r}; expected one of {sorted(p)}")
-            if key == "restitution":
-                p[key] = _checks.in_range(key, value, 0.0, 1.0, lo_open=True, hi_open=False)
-            elif key == "roughness":
-                p[key] = _checks.in_range(key, value, 0.0, 90.0, lo_open=False, hi_open=True)
-            elif key in ("roughness_distribution", "shadow"):
-                p[key] = _checks.choice(key, value, _core.choices[key])
-            else:
-                p[key] = _checks.positive(key, value, allow_zero=key != "kn")
-        if p["roughness_distribution"] == "uniform" and 3**0.5 * p["roughness"] >= 90.0:
-            raise ValueError(f"roughness with a uniform distribution must be < 90/sqrt(3) degrees "
-                             f"(its range is +-sqrt(3) sigma), got {p['roughness']!r}")
-        params = _core.PairParams()
-        for name in _core.PairParams.fields:
-            setattr(params, name, math.radians(p[name]) if name == "roughness" else p[name])
-        self._core.set_pair_parameters(a, b, params)
+            p[key] = _check_field(key, value)
+        _check_uniform_range(p["roughness_distribution"], p["roughness"])
+        self._core.set_pair_parameters(a, b, _to_core(_core.PairParams, p))
 
     def pair_parameters(self, material_a: Material, material_b: Material) -> dict:
         """The contact parameters used between two materials (mixed, or as overridden);
         roughness in degrees."""
-        params = self._core.pair_parameters(self._material(material_a, "material_a"),
-                                            self._material(material_b, "material_b"))
-        p = {name: getattr(params, name) for name in _core.PairParams.fields}
-        p["roughness"] = math.degrees(p["roughness"])
-        return p
+        return _from_core(self._core.pair_parameters(self._material(material_a, "material_a"),
+                                                     self._material(material_b, "material_b")))
 
     # ---- scene -------------------------------------------------------------------------------
     def reserve(self, count: int) -> None:
