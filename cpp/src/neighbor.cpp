@@ -201,6 +201,8 @@ void Simulation::rebuild(bool keep_history) {
   size_entry_buffers();
   for (Array<double>* a : wall_state_.carried()) std::fill(a->begin(), a->end(), 0.0);
   if (transfer) {  // wall contact state, by (id, wall key)
+    const auto width = EntryStore::widths(wall_shape_);
+    const auto state = wall_state_.carried();
     for (Index i = 0; i < ni; ++i) {
       const Id a = particles_.id[i];
       if (a >= static_cast<Id>(old_index_of_.size())) continue;  // added since
@@ -208,11 +210,10 @@ void Simulation::rebuild(bool keep_history) {
       if (static_cast<std::size_t>(oi) >= old_n) continue;
       for (Index e = wall_offset_[i]; e < wall_offset_[i + 1]; ++e)
         for (Index q = old_wall_offset_[oi]; q < old_wall_offset_[oi + 1]; ++q)
-          if (WallKey{old_wall_index_[q], 0} == wall_key(e)) {
-            const auto width = EntryStore::widths(wall_shape_);
+          if (wall_key(old_wall_index_, q) == wall_key(wall_index_, e)) {
             for (std::size_t k = 0; k < kEntryArrays; ++k) {
               const Array<double>& old = old_wall_state_[k];
-              Array<double>& now = *wall_state_.carried()[k];
+              Array<double>& now = *state[k];
               if (now.empty() || old.empty()) continue;  // the old or new law has no such array
               const std::size_t wd = width[k];
               std::copy(&old[wd * q], &old[wd * q] + wd, &now[wd * e]);

@@ -286,15 +286,6 @@ double Simulation::skin() const {
   return 0.2 * 2.0 * sum / static_cast<double>(n_);
 }
 
-PairTable Simulation::mixed_pairs() const {
-  PairTable t;
-  const std::size_t nm = materials_.size();
-  t.resize(nm);
-  for (std::size_t a = 0; a < nm; ++a)
-    for (std::size_t b = a; b < nm; ++b) t.set(a, b, pair_parameters(int(a), int(b)));
-  return t;
-}
-
 // Each slot takes the evaluator the scene needs: the simplest that gives its physics.
 LawKey Simulation::law_key() const {
   bool friction = false, rolling = false, rough = false;

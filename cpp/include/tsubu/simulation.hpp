@@ -205,8 +205,6 @@ class Simulation {
   void move_planes(double dt);
   // The compiled law this scene's pairs and options select (registry.hpp).
   LawKey law_key() const;
-  // Mixed parameters of every material pair, overrides applied (the table a run uses).
-  PairTable mixed_pairs() const;
   bool walls_move() const;
   [[noreturn]] void report_overlap(double dt) const;
   [[noreturn]] void report_nonfinite() const;
@@ -329,8 +327,9 @@ class Simulation {
   // The energy a contact loses when it opens (its tangential spring; the engine releases).
   double spring_energy(int material_a, int material_b, const Array<double>& xi,
                        std::size_t e) const;
-  // The key under which a near-wall entry's state is found again after a rebuild.
-  WallKey wall_key(Index entry) const { return {wall_index_[entry], 0}; }
+  // The key under which a near-wall entry's state is found again after a rebuild (walls: the
+  // entries' wall indices, the current list's or the stashed one's).
+  static WallKey wall_key(const Array<Index>& walls, Index entry) { return {walls[entry], 0}; }
   void size_entry_buffers();
   void sort_by_cell(double cell_size, const Vec3& lo, const std::array<long, 3>& dims);
 };
