@@ -36,7 +36,8 @@ def test_keyword_constructor_names_bad_keywords(cls):
 def test_python_material_and_core_fields_agree():
     """A field the core binds must be a field of tsubu.Material, and the other way round."""
     assert set(_core.Material.fields) == set(_PARAMETERS)
-    assert set(_core.PairParams.fields) == set(_PARAMETERS) - {"density"}
+    assert set(_core.PairParams.fields) == (set(_PARAMETERS) - {"density", "youngs_modulus", "poisson_ratio"}
+                                            | {"effective_modulus", "effective_shear_modulus"})
 
 
 def test_material_reaches_the_core_in_radians():
@@ -91,6 +92,8 @@ def test_every_field_of_a_material_reaches_the_core():
     core = m._to_core()
     for name in _core.Material.fields:
         want, got = getattr(m, name), getattr(core, name)
+        if want is None:  # the other law's field (a linear material's youngs_modulus): unused
+            continue
         if name == "roughness":
             assert got == pytest.approx(math.radians(want), rel=1e-15)
         else:

@@ -75,13 +75,32 @@ void register_materials(py::module_& m) {
   py::list material_fields;
   material.def_readwrite("density", &tsubu::Material::density, "kg/m^3");
   material_fields.append("density");
+  material.def_readwrite("youngs_modulus", &tsubu::Material::youngs_modulus,
+                         "Young's modulus E [Pa]; 0: a linear (kn, kt) material");
+  material_fields.append("youngs_modulus");
+  material.def_readwrite("poisson_ratio", &tsubu::Material::poisson_ratio, "Poisson's ratio nu");
+  material_fields.append("poisson_ratio");
   law_fields(material, material_fields);
   material.attr("fields") = py::tuple(material_fields);
+  m.def("hertz_restitution", &tsubu::HertzDamping::restitution, py::arg("factor"), py::arg("clipped"),
+        "The restitution of a Hertzian impact with dashpot eta_n = factor sqrt(S_n m*), the normal "
+        "force clipped at zero or not (integrated, dimensionless)");
+  m.def("hertz_damping_factor", [](double e, bool clipped) {
+          return clipped ? tsubu::HertzDamping::repulsive_factor(e) : tsubu::HertzDamping::signed_factor(e);
+        }, py::arg("restitution"), py::arg("clipped"),
+        "The factor f of eta_n = f sqrt(S_n m*) that gives restitution e: 2 sqrt(5/6) |beta|, or, "
+        "for a force clipped at zero, the value found by bisection on hertz_restitution");
 
   py::class_<tsubu::PairParams> pair(m, "PairParams",
                                      "The contact parameters of one pair of materials");
   keywords_and_repr(pair, "PairParams");
   py::list pair_fields;
+  pair.def_readwrite("effective_modulus", &tsubu::PairParams::effective_modulus,
+                     "Hertz's E* [Pa]; 0: a linear pair");
+  pair_fields.append("effective_modulus");
+  pair.def_readwrite("effective_shear_modulus", &tsubu::PairParams::effective_shear_modulus,
+                     "Mindlin's G* [Pa]");
+  pair_fields.append("effective_shear_modulus");
   law_fields(pair, pair_fields);
   pair.attr("fields") = py::tuple(pair_fields);
 }

@@ -84,10 +84,14 @@ void register_simulation(py::class_<Sim>& cls) {
   option(cls, "rebuild_every_step", &tsubu::Options::rebuild_every_step);
   enum_option(cls, "history_rule", &tsubu::Options::history);
   enum_option(cls, "slip_rule", &tsubu::Options::slip);
+  option(cls, "repulsive", &tsubu::Options::repulsive);
+  option(cls, "impact_speed", &tsubu::Options::impact_speed);
 
   cls.def("critical_time_step", &Sim::critical_time_step)
       .def("contact_duration", &Sim::contact_duration)
       .def("default_time_step", &Sim::default_time_step)
+      .def("rayleigh_time", &Sim::rayleigh_time)
+      .def("characteristic_speed", &Sim::characteristic_speed)
       .def("time_step", &Sim::time_step)
       .def("run", &Sim::run, "steps"_a, py::call_guard<py::gil_scoped_release>())
       .def_property_readonly("step_count", &Sim::step_count)

@@ -437,14 +437,16 @@ void Simulation::size_entry_buffers() {
 }
 
 void Simulation::cache_near_terms() {
-  fit(near_damping_, near_partner_.size());
   const CompiledLaw& law = this->law();
-  const double *mass = particles_.mass.data();
+  const std::size_t width = law.entry_width;
+  fit(near_entry_, width * near_partner_.size());
+  const double *mass = particles_.mass.data(), *radius = particles_.radius.data();
   const int* material = particles_.material.data();
   for (std::size_t q = 0; q < near_partner_.size(); ++q) {
     const Index i = near_owner_[q], j = near_partner_[q];
     const double m_eff = mass[i] * mass[j] / (mass[i] + mass[j]);
-    near_damping_[q] = law.damping_term(pairs_(material[i], material[j]), m_eff);
+    const double r_eff = radius[i] * radius[j] / (radius[i] + radius[j]);
+    law.entry_terms(pairs_(material[i], material[j]), m_eff, r_eff, near_entry_.data() + width * q);
   }
 }
 

@@ -23,9 +23,8 @@ const std::array<CompiledLaw, detail::kLawCount>& laws() {
 }  // namespace
 
 const CompiledLaw& find_law(const LawKey& key) {
-  if (key.normal >= detail::kNormalN || key.damping >= detail::kDampingN ||
-      key.tangential >= detail::kTangentialN || key.rolling >= detail::kRollingN ||
-      key.roughness >= detail::kRoughnessN)
+  if (key.rolling >= detail::kRollingN || key.roughness >= detail::kRoughnessN ||
+      detail::law_index(key) >= detail::kLawCount)
     throw InvalidArgument("no compiled contact law for this combination of features");
   return laws()[detail::law_index(key)];
 }

@@ -61,8 +61,15 @@ int Simulation::threads() const {
 
 int Simulation::add_material(const Material& m) {
   require(m.density > 0 && std::isfinite(m.density), "density must be > 0, got " + fmt(m.density));
-  require(m.kn > 0 && std::isfinite(m.kn), "kn must be > 0, got " + fmt(m.kn));
-  require(m.kt >= 0 && std::isfinite(m.kt), "kt must be >= 0, got " + fmt(m.kt));
+  require(m.youngs_modulus >= 0 && std::isfinite(m.youngs_modulus),
+          "youngs_modulus must be > 0 (or 0 for a linear material), got " + fmt(m.youngs_modulus));
+  if (m.youngs_modulus > 0) {
+    require(m.poisson_ratio > -1 && m.poisson_ratio <= 0.5,
+            "poisson_ratio must be in (-1, 0.5], got " + fmt(m.poisson_ratio));
+  } else {
+    require(m.kn > 0 && std::isfinite(m.kn), "kn must be > 0, got " + fmt(m.kn));
+    require(m.kt >= 0 && std::isfinite(m.kt), "kt must be >= 0, got " + fmt(m.kt));
+  }
   require(m.restitution > 0 && m.restitution <= 1,
           "restitution must be in (0, 1], got " + fmt(m.restitution));
   require(m.friction >= 0 && std::isfinite(m.friction),
@@ -87,7 +94,15 @@ void Simulation::set_pair_parameters(int a, int b, const PairParams& p) {
   energy_ref_valid_ = false;
   material(a);
   material(b);
-  require(p.kn > 0 && p.kt >= 0, "pair stiffnesses must be kn > 0, kt >= 0");
+  if (HertzParams::used(p))
+    require(std::isfinite(p.effective_modulus) && p.effective_shear_modulus >= 0 &&
+                std::isfinite(p.effective_shear_modulus),
+            "pair moduli must be effective_modulus > 0, effective_shear_modulus >= 0");
+  else
+    require(p.kn > 0 && p.kt >= 0, "pair stiffnesses must be kn > 0, kt >= 0");
+  require(HertzParams::used(p) == HertzParams::used(pair_parameters(a, b)),
+          "a pair's override keeps its materials' law: effective_modulus > 0 exactly when both "
+          "materials are Hertzian");
   require(p.restitution > 0 && p.restitution <= 1, "pair restitution must be in (0, 1]");
   require(p.friction >= 0 && p.rolling_friction >= 0 && p.tangential_damping >= 0,
           "pair friction coefficients must be >= 0");
@@ -110,11 +125,18 @@ void Simulation::set_pair_parameters(int a, int b, const PairParams& p) {
 }
 
 PairParams Simulation::pair_parameters(int a, int b) const {
-  for (std::size_t k = 0; k < overrides_key_.size(); ++k) {
+  PairParams p;
+  bool found = false;
+  for (std::size_t k = 0; k < overrides_key_.size() && !found; ++k) {
     const auto& key = overrides_key_[k];
-    if ((key[0] == a && key[1] == b) || (key[0] == b && key[1] == a)) return overrides_[k];
+    if ((key[0] == a && key[1] == b) || (key[0] == b && key[1] == a)) p = overrides_[k], found = true;
   }
-  return mix(material(a), material(b));
+  if (!found) p = mix(material(a), material(b));
+  if (HertzParams::used(p)) {  // the scene's choice of a clipped force and its damping
+    p.normal_floor = opt_.repulsive ? 0.0 : -std::numeric_limits<double>::infinity();
+    p.finalise();
+  }
+  return p;
 }
 
 void Simulation::mix_pairs() {
@@ -235,26 +257,31 @@ bool Simulation::walls_move() const {
 
 // ---- time step ---------------------------------------------------------------------------
 
-// Calls f(params, m_eff) for every kind of contact the scene can have: each pair of particle
-// materials present (reduced mass of their lightest particles) and each particle material
-// against each wall material (mass of the lightest particle).
+// Calls f(params, scale) for every kind of contact the scene can have: each pair of particle
+// materials present (reduced mass and radius of their lightest and smallest particles) and each
+// particle material against each wall material (the lightest particle's mass, the smallest
+// radius), at the scene's characteristic impact speed.
 template <class F>
 void Simulation::for_each_contact_type(F&& f) const {
   const std::size_t nm = materials_.size();
-  std::vector<double> lightest(nm, std::numeric_limits<double>::infinity());
-  for (std::size_t k = 0; k < n_; ++k)
-    lightest[particles_.material[k]] = std::min(lightest[particles_.material[k]], particles_.mass[k]);
+  std::vector<double> lightest(nm, std::numeric_limits<double>::infinity()), smallest = lightest;
+  for (std::size_t k = 0; k < n_; ++k) {
+    const int m = particles_.material[k];
+    lightest[m] = std::min(lightest[m], particles_.mass[k]);
+    smallest[m] = std::min(smallest[m], particles_.radius[k]);
+  }
   std::vector<char> wall_material(nm, 0);
   for (const Plane& p : planes_) wall_material[p.material] = 1;
+  const double speed = characteristic_speed();
   for (std::size_t a = 0; a < nm; ++a) {
     if (!std::isfinite(lightest[a])) continue;
     for (std::size_t b = a; b < nm; ++b) {
       if (!std::isfinite(lightest[b]) || n_ < 2) continue;
-      const double ma = lightest[a], mb = lightest[b];
-      f(pair_parameters(int(a), int(b)), ma * mb / (ma + mb));
+      const double ma = lightest[a], mb = lightest[b], ra = smallest[a], rb = smallest[b];
+      f(pair_parameters(int(a), int(b)), ContactScale{ma * mb / (ma + mb), ra * rb / (ra + rb), speed});
     }
     for (std::size_t b = 0; b < nm; ++b)
-      if (wall_material[b]) f(pair_parameters(int(a), int(b)), lightest[a]);
+      if (wall_material[b]) f(pair_parameters(int(a), int(b)), ContactScale{lightest[a], smallest[a], speed});
   }
 }
 
@@ -262,7 +289,7 @@ double Simulation::critical_time_step() const {
   const CompiledLaw& law = find_law(law_key());
   double bound = std::numeric_limits<double>::infinity();
   for_each_contact_type(
-      [&](const PairParams& p, double m) { bound = std::min(bound, law.critical_time_step(p, m)); });
+      [&](const PairParams& p, const ContactScale& s) { bound = std::min(bound, law.critical_time_step(p, s)); });
   return bound;
 }
 
@@ -270,11 +297,53 @@ double Simulation::contact_duration() const {
   const CompiledLaw& law = find_law(law_key());
   double tc = std::numeric_limits<double>::infinity();
   for_each_contact_type(
-      [&](const PairParams& p, double m) { tc = std::min(tc, law.contact_duration(p, m)); });
+      [&](const PairParams& p, const ContactScale& s) { tc = std::min(tc, law.contact_duration(p, s)); });
   return tc;
 }
 
-double Simulation::default_time_step() const { return contact_duration() / 50.0; }
+double Simulation::default_time_step() const {
+  return std::min(contact_duration() / 50.0, 0.2 * rayleigh_time());
+}
+
+double Simulation::rayleigh_time() const {
+  std::vector<double> smallest(materials_.size(), std::numeric_limits<double>::infinity());
+  for (std::size_t k = 0; k < n_; ++k)
+    smallest[particles_.material[k]] = std::min(smallest[particles_.material[k]], particles_.radius[k]);
+  double t = std::numeric_limits<double>::infinity();
+  for (std::size_t a = 0; a < materials_.size(); ++a) {
+    const Material& m = materials_[a];
+    if (!(m.youngs_modulus > 0) || !std::isfinite(smallest[a])) continue;
+    const double shear = m.youngs_modulus / (2.0 * (1.0 + m.poisson_ratio));
+    t = std::min(t, M_PI * smallest[a] * std::sqrt(m.density / shear) /
+                        (0.1631 * m.poisson_ratio + 0.8766));
+  }
+  return t;
+}
+
+double Simulation::characteristic_speed() const {
+  if (opt_.impact_speed > 0) return opt_.impact_speed;
+  double v2 = 0;
+  for (std::size_t k = 0; k < n_; ++k) v2 = std::max(v2, vec3(particles_.v.data(), k).squaredNorm());
+  return std::max(1.0, 2.0 * std::sqrt(v2));
+}
+
+bool Simulation::hertzian() const {
+  // The materials in use: spheres' and walls'.
+  std::vector<char> used(materials_.size(), 0);
+  for (std::size_t k = 0; k < n_; ++k) used[particles_.material[k]] = 1;
+  for (const Plane& p : planes_) used[p.material] = 1;
+  int hertz = -1, linear = -1;
+  for (std::size_t a = 0; a < materials_.size(); ++a) {
+    if (!used[a]) continue;
+    (materials_[a].youngs_modulus > 0 ? hertz : linear) = static_cast<int>(a);
+  }
+  require(hertz < 0 || linear < 0, [&] {
+    return "the scene mixes a Hertzian material (material " + std::to_string(hertz) +
+           ", given youngs_modulus) with a linear one (material " + std::to_string(linear) +
+           ", given kn): give every sphere and wall material youngs_modulus, or none";
+  });
+  return hertz >= 0;
+}
 
 double Simulation::time_step() const { return opt_.dt > 0 ? opt_.dt : default_time_step(); }
 
@@ -289,18 +358,24 @@ double Simulation::skin() const {
 // Each slot takes the evaluator the scene needs: the simplest that gives its physics.
 LawKey Simulation::law_key() const {
   bool friction = false, rolling = false, rough = false;
+  const bool hertz = hertzian();
   const std::size_t nm = materials_.size();
   for (std::size_t a = 0; a < nm; ++a)
     for (std::size_t b = a; b < nm; ++b) {
       const PairParams p = pair_parameters(int(a), int(b));
-      friction |= FrictionParams::used(p);
+      friction |= hertz ? MindlinRotate::used(p) : FrictionParams::used(p);
       rolling |= RollingParams::used(p);
       rough |= RoughnessParams::used(p);
     }
   LawKey key;
-  key.normal = NormalLaws::index_of<HookeNormal>();
-  key.damping = DampingLaws::index_of<RestitutionDamping>();
+  key.normal = hertz ? NormalLaws::index_of<HertzNormal>() : NormalLaws::index_of<HookeNormal>();
+  key.damping = hertz ? DampingLaws::index_of<HertzDamping>() : DampingLaws::index_of<RestitutionDamping>();
+  require(!(hertz && friction && opt_.history == HistoryRule::Literal),
+          "tangential_history='literal' is offered for the linear law only; Hertzian scenes use "
+          "'rotate'");
   key.tangential = !friction                          ? TangentialLaws::index_of<NoTangential>()
+                   : hertz ? (opt_.slip == SlipRule::Truncate ? TangentialLaws::index_of<MindlinRotateTruncate>()
+                                                              : TangentialLaws::index_of<MindlinRotate>())
                    : opt_.history == HistoryRule::Literal ? TangentialLaws::index_of<TangentialLiteral>()
                    : opt_.slip == SlipRule::Truncate   ? TangentialLaws::index_of<TangentialRotateTruncate>()
                                                        : TangentialLaws::index_of<TangentialRotate>();
@@ -320,6 +395,7 @@ void Simulation::prepare_run() {
   require(!(opt_.slip == SlipRule::Truncate && opt_.history == HistoryRule::Literal),
           "the truncate slip rule needs the rotate tangential history");
   mix_pairs();
+  speed_ = characteristic_speed();
   dt_ = time_step();
   require(std::isfinite(dt_) && dt_ > 0,
           "no time step: the scene has no possible contact to derive one from; set dt");
@@ -442,6 +518,13 @@ void Simulation::report_nonfinite() const {
   throw InstabilityError("unstable: non-finite force", step_ + 1, -1);
 }
 
+namespace {
+// k_t of a stored history: a linear spring's, or Mindlin's 8 G* a with the a the history keeps.
+double tangential_stiffness(const PairParams& p, const double* history, int width) {
+  return width > 3 ? 8.0 * p.effective_shear_modulus * history[3] : p.kt;
+}
+}  // namespace
+
 Energy Simulation::energy_now() const {
   Energy e = energy();
   e.elastic = 0;
@@ -468,25 +551,28 @@ Energy Simulation::energy_now() const {
       if (!(delta > 0)) continue;  // (an open contact holds no tangential displacement)
       const PairParams& p = pairs_(particles_.material[i], particles_.material[j]);
       const Vec3 n = d / dist, vrel = vec3(v, i) - vec3(v, j);
-      e.elastic += law.normal_energy(p, delta);
-      power += law.elastic_force(p, delta) * vrel.dot(n);
+      const double ri = particles_.radius[i], rj = particles_.radius[j], r_eff = ri * rj / (ri + rj);
+      e.elastic += law.normal_energy(p, delta, r_eff);
+      power += law.elastic_force(p, delta, r_eff) * vrel.dot(n);
       if (pair_state_.xi.empty()) continue;
-      const Vec3 xi = vec3(pair_state_.xi.data(), q);
-      e.elastic += law.tangential_energy(p, xi.data());
-      const Vec3 lever = contact_lever(particles_.radius[i], delta) * vec3(w, i) + contact_lever(particles_.radius[j], delta) * vec3(w, j);
-      power += p.kt * xi.dot(slip(n, vrel, lever));
+      const double* h = pair_state_.xi.data() + law.history_width * q;
+      e.elastic += law.tangential_energy(p, h);
+      const Vec3 lever = contact_lever(ri, delta) * vec3(w, i) + contact_lever(rj, delta) * vec3(w, j);
+      power += tangential_stiffness(p, h, law.history_width) * Vec3(h[0], h[1], h[2]).dot(slip(n, vrel, lever));
     }
     for (Index k = wall_offset_[i]; k < wall_offset_[i + 1]; ++k) {
       const Plane& P = planes_[wall_index_[k]];
       const double delta = P.overlap(vec3(x, i), particles_.radius[i]);
       if (!(delta > 0)) continue;
       const PairParams& p = pairs_(particles_.material[i], P.material);
-      e.elastic += law.normal_energy(p, delta);
-      power += law.elastic_force(p, delta) * vec3(v, i).dot(P.normal);
+      const double ri = particles_.radius[i];
+      e.elastic += law.normal_energy(p, delta, ri);
+      power += law.elastic_force(p, delta, ri) * vec3(v, i).dot(P.normal);
       if (wall_state_.xi.empty()) continue;
-      const Vec3 xi = vec3(wall_state_.xi.data(), k);
-      e.elastic += law.tangential_energy(p, xi.data());
-      power += p.kt * xi.dot(slip(P.normal, vec3(v, i), contact_lever(particles_.radius[i], delta) * vec3(w, i)));
+      const double* h = wall_state_.xi.data() + law.history_width * k;
+      e.elastic += law.tangential_energy(p, h);
+      power += tangential_stiffness(p, h, law.history_width) *
+               Vec3(h[0], h[1], h[2]).dot(slip(P.normal, vec3(v, i), contact_lever(ri, delta) * vec3(w, i)));
     }
   }
   e.step_correction = 0.5 * dt_ * power;
@@ -620,8 +706,10 @@ Energy Simulation::energy() const {
     const int mi = particles_.material[index_of_[c.i]];
     const int mj = c.wall >= 0 ? planes_[c.wall].material : particles_.material[index_of_[c.j]];
     const PairParams& p = pairs_(mi, mj);
-    e.elastic += law.normal_energy(p, c.overlap);
-    e.elastic += law.tangential_energy(p, c.tangential_displacement.data());
+    e.elastic += law.normal_energy(p, c.overlap, c.reduced_radius);
+    const double h[4] = {c.tangential_displacement.x(), c.tangential_displacement.y(),
+                         c.tangential_displacement.z(), c.contact_radius};
+    e.elastic += law.tangential_energy(p, h);
   }
   return e;
 }
@@ -636,22 +724,28 @@ std::vector<ContactInfo> Simulation::contacts() const {
     if (!roll.empty()) t += r * vec3(roll.data(), e);
     return t;
   };
-  auto history = [](const Array<double>& xi, std::size_t e) {
-    return xi.empty() ? Vec3(Vec3::Zero()) : Vec3(vec3(xi.data(), e));
+  const int width = law().history_width;
+  auto history = [width](const Array<double>& xi, std::size_t e) {
+    return xi.empty() ? Vec3(Vec3::Zero()) : Vec3(xi[width * e], xi[width * e + 1], xi[width * e + 2]);
   };
+  auto size = [width](const Array<double>& xi, std::size_t e) {
+    return width > 3 && !xi.empty() ? xi[width * e + 3] : 0.0;
+  };
+  const double* r = particles_.radius.data();
   for (std::size_t i = 0; i < n_; ++i) {
     for (Index e = near_offset_[i]; e < near_offset_[i + 1]; ++e) {
       if (!(pair_state_.overlap[e] > 0)) continue;
       out.push_back({particles_.id[i], particles_.id[near_partner_[e]], -1, pair_state_.overlap[e],
                      vec3(pair_state_.force.data(), e),
                      torque(pair_state_.nxft, pair_state_.roll, particles_.radius[i], pair_state_.overlap[e], e),
-                     history(pair_state_.xi, e)});
+                     history(pair_state_.xi, e), r[i] * r[near_partner_[e]] / (r[i] + r[near_partner_[e]]),
+                     size(pair_state_.xi, e)});
     }
     for (Index e = wall_offset_[i]; e < wall_offset_[i + 1]; ++e) {
       if (!(wall_state_.overlap[e] > 0)) continue;
       out.push_back({particles_.id[i], -1, wall_index_[e], wall_state_.overlap[e], vec3(wall_state_.force.data(), e),
                      torque(wall_state_.nxft, wall_state_.roll, particles_.radius[i], wall_state_.overlap[e], e),
-                     history(wall_state_.xi, e)});
+                     history(wall_state_.xi, e), r[i], size(wall_state_.xi, e)});
     }
   }
   std::sort(out.begin(), out.end(), [](const ContactInfo& a, const ContactInfo& b) {
@@ -671,7 +765,7 @@ std::vector<std::pair<std::string, std::size_t>> Simulation::memory_bytes() cons
       {"particles", particles_.bytes() + bytes(index_of_, busy_, loaded_, sum_offset_)},
       {"verlet list", bytes(pair_offset_, pair_partner_)},
       {"near list", bytes(near_offset_, near_owner_, near_partner_, near_rev_offset_, near_rev_,
-                          near_cut2_, near_damping_, sum_entry_) +
+                          near_cut2_, near_entry_, sum_entry_) +
                         pair_state_.bytes()},
       {"walls", bytes(wall_offset_, wall_index_, wall_owner_, wall_near_offset_, wall_near_) +
                     wall_state_.bytes()},

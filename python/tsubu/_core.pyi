@@ -9,14 +9,14 @@ import collections.abc
 import numpy
 import numpy.typing
 import typing
-__all__: list[str] = ['InstabilityError', 'Material', 'PairParams', 'Simulation', 'choices', 'compiled_law_count', 'openmp']
+__all__: list[str] = ['InstabilityError', 'Material', 'PairParams', 'Simulation', 'choices', 'compiled_law_count', 'hertz_damping_factor', 'hertz_restitution', 'openmp']
 class InstabilityError(RuntimeError):
     pass
 class Material:
     """
     One material (SI units, roughness in radians)
     """
-    fields: typing.ClassVar[tuple] = ('density', 'kn', 'kt', 'restitution', 'friction', 'rolling_friction', 'tangential_damping', 'roughness', 'roughness_distribution', 'shadow')
+    fields: typing.ClassVar[tuple] = ('density', 'youngs_modulus', 'poisson_ratio', 'kn', 'kt', 'restitution', 'friction', 'rolling_friction', 'tangential_damping', 'roughness', 'roughness_distribution', 'shadow')
     roughness_distribution: str
     shadow: str
     def __init__(self, **kwargs) -> None:
@@ -58,6 +58,14 @@ class Material:
     def kt(self, arg0: typing.SupportsFloat | typing.SupportsIndex) -> None:
         ...
     @property
+    def poisson_ratio(self) -> float:
+        """
+        Poisson's ratio nu
+        """
+    @poisson_ratio.setter
+    def poisson_ratio(self, arg0: typing.SupportsFloat | typing.SupportsIndex) -> None:
+        ...
+    @property
     def restitution(self) -> float:
         """
         normal coefficient of restitution, (0, 1]
@@ -89,11 +97,19 @@ class Material:
     @tangential_damping.setter
     def tangential_damping(self, arg0: typing.SupportsFloat | typing.SupportsIndex) -> None:
         ...
+    @property
+    def youngs_modulus(self) -> float:
+        """
+        Young's modulus E [Pa]; 0: a linear (kn, kt) material
+        """
+    @youngs_modulus.setter
+    def youngs_modulus(self, arg0: typing.SupportsFloat | typing.SupportsIndex) -> None:
+        ...
 class PairParams:
     """
     The contact parameters of one pair of materials
     """
-    fields: typing.ClassVar[tuple] = ('kn', 'kt', 'restitution', 'friction', 'rolling_friction', 'tangential_damping', 'roughness', 'roughness_distribution', 'shadow')
+    fields: typing.ClassVar[tuple] = ('effective_modulus', 'effective_shear_modulus', 'kn', 'kt', 'restitution', 'friction', 'rolling_friction', 'tangential_damping', 'roughness', 'roughness_distribution', 'shadow')
     roughness_distribution: str
     shadow: str
     def __init__(self, **kwargs) -> None:
@@ -101,6 +117,22 @@ class PairParams:
         Keywords: any of `fields`; the others keep their defaults
         """
     def __repr__(self) -> str:
+        ...
+    @property
+    def effective_modulus(self) -> float:
+        """
+        Hertz's E* [Pa]; 0: a linear pair
+        """
+    @effective_modulus.setter
+    def effective_modulus(self, arg0: typing.SupportsFloat | typing.SupportsIndex) -> None:
+        ...
+    @property
+    def effective_shear_modulus(self) -> float:
+        """
+        Mindlin's G* [Pa]
+        """
+    @effective_shear_modulus.setter
+    def effective_shear_modulus(self, arg0: typing.SupportsFloat | typing.SupportsIndex) -> None:
         ...
     @property
     def friction(self) -> float:
@@ -162,6 +194,7 @@ class Simulation:
     allow_unstable_dt: bool
     history_rule: str
     rebuild_every_step: bool
+    repulsive: bool
     slip_rule: str
     def __init__(self) -> None:
         ...
@@ -172,6 +205,8 @@ class Simulation:
     def add_spheres(self, positions: typing.Annotated[numpy.typing.ArrayLike, numpy.float64], radii: typing.Annotated[numpy.typing.ArrayLike, numpy.float64], materials: typing.Annotated[numpy.typing.ArrayLike, numpy.int32], velocities: typing.Annotated[numpy.typing.ArrayLike, numpy.float64] | None, angular_velocities: typing.Annotated[numpy.typing.ArrayLike, numpy.float64] | None) -> int:
         ...
     def angular_velocities(self) -> numpy.typing.NDArray[numpy.float64]:
+        ...
+    def characteristic_speed(self) -> float:
         ...
     def contact_duration(self) -> float:
         ...
@@ -204,6 +239,8 @@ class Simulation:
     def positions(self) -> numpy.typing.NDArray[numpy.float64]:
         ...
     def radii(self) -> numpy.typing.NDArray[numpy.float64]:
+        ...
+    def rayleigh_time(self) -> float:
         ...
     def rebuild_neighbors(self) -> None:
         ...
@@ -245,6 +282,12 @@ class Simulation:
         ...
     @gravity.setter
     def gravity(self, arg1: typing.Annotated[collections.abc.Sequence[typing.SupportsFloat | typing.SupportsIndex], "FixedSize(3)"]) -> None:
+        ...
+    @property
+    def impact_speed(self) -> float:
+        ...
+    @impact_speed.setter
+    def impact_speed(self, arg1: typing.SupportsFloat | typing.SupportsIndex) -> None:
         ...
     @property
     def initial_overlap(self) -> float:
@@ -300,6 +343,14 @@ class Simulation:
     @property
     def time(self) -> float:
         ...
-choices: dict[str, tuple[str, ...]]
-compiled_law_count: int
-openmp: bool
+def hertz_damping_factor(restitution: typing.SupportsFloat | typing.SupportsIndex, clipped: bool) -> float:
+    """
+    The factor f of eta_n = f sqrt(S_n m*) that gives restitution e: 2 sqrt(5/6) |beta|, or, for a force clipped at zero, the value found by bisection on hertz_restitution
+    """
+def hertz_restitution(factor: typing.SupportsFloat | typing.SupportsIndex, clipped: bool) -> float:
+    """
+    The restitution of a Hertzian impact with dashpot eta_n = factor sqrt(S_n m*), the normal force clipped at zero or not (integrated, dimensionless)
+    """
+choices: dict = {'roughness_distribution': ('normal', 'uniform'), 'shadow': ('reject', 'weighted', 'none'), 'tangential_history': ('rotate', 'literal'), 'slip_rule': ('frozen', 'truncate')}
+compiled_law_count: int = 28
+openmp: bool = True

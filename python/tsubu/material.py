@@ -12,27 +12,50 @@ from . import _checks, _core
 class Material:
     """Contact and bulk parameters of one material (SI units).
 
-    Every sphere and wall has a material. The parameters of a contact between two materials are
-    mixed once, when a run starts (see ``Simulation.set_pair`` to override a pair):
+    Every sphere and wall has a material. A material follows one of two contact laws:
+
+    * **linear** (Kelvin-Voigt, the default): give ``kn`` (and optionally ``kt``);
+    * **Hertz-Mindlin**: give ``youngs_modulus`` (and ``poisson_ratio``). The normal force is
+      Hertz's ``(4/3) E* sqrt(R*) delta^(3/2)`` with a dashpot that gives the restitution at any
+      impact speed, the tangential spring Mindlin's ``k_t = 8 G* sqrt(R* delta)``
+      (docs/physics.md). Giving ``kn`` or ``kt`` too is a ValueError; so is a scene whose
+      spheres and walls mix the two kinds.
+
+    The parameters of a contact between two materials are mixed once, when a run starts (see
+    ``Simulation.set_pair`` to override a pair):
 
     * ``kn``, ``kt``: harmonic mean ``2 a b / (a + b)`` (two half-springs in series; equal
       materials keep their own value);
+    * Hertzian: ``1/E* = (1 - nu_a^2)/E_a + (1 - nu_b^2)/E_b`` and
+      ``1/G* = (2 - nu_a)/G_a + (2 - nu_b)/G_b``, ``G = E / (2 (1 + nu))`` (a plane wall: the
+      wall material's E and nu, with ``R* = r`` and ``m* = m`` of the sphere; a rigid wall is a
+      wall material with a much larger E);
     * ``restitution``, ``friction``, ``rolling_friction``, ``tangential_damping``: geometric mean.
 
     Parameters
     ----------
     density : float
         Mass density [kg/m^3], > 0. Unused for walls.
-    kn : float
-        Normal spring stiffness [N/m], > 0 (linear Kelvin-Voigt law, eq. 1.6).
+    kn : float or None
+        Normal spring stiffness [N/m], > 0 (linear Kelvin-Voigt law, eq. 1.6). Default 1e3 for a
+        linear material; None (unused) for a Hertzian one.
     kt : float or None
         Tangential spring stiffness [N/m], >= 0. Default ``2/7 kn``, which gives the tangential
-        oscillation of a rolling sphere the frequency of the normal one.
+        oscillation of a rolling sphere the frequency of the normal one. None for a Hertzian
+        material.
+    youngs_modulus : float or None
+        Young's modulus E [Pa], > 0: makes the material Hertzian. Default None (linear).
+    poisson_ratio : float or None
+        Poisson's ratio nu in (-1, 0.5] of a Hertzian material. Default 0.3 when
+        ``youngs_modulus`` is given; giving it without ``youngs_modulus`` is a ValueError.
     restitution : float
-        Normal coefficient of restitution e in (0, 1]. The normal dashpot is
+        Normal coefficient of restitution e in (0, 1]. Linear law: the normal dashpot is
         ``eta_n = -2 ln(e) sqrt(m_eff kn / (pi^2 + ln^2 e))`` (eq. B.9) with the reduced mass
         ``m_eff = m_i m_j / (m_i + m_j)`` of the pair (walls: ``m_i``), so every contact
-        rebounds with e. The normal force is not clipped at zero (B.9 assumes it).
+        rebounds with e. The normal force is not clipped at zero (B.9 assumes it). Hertzian:
+        ``eta_n = 2 sqrt(5/6) |beta| sqrt(S_n m*)``, ``S_n = 2 E* sqrt(R* delta)``,
+        ``beta = ln e / sqrt(ln^2 e + pi^2)`` (or, with ``Simulation(hertz_force="repulsive")``,
+        the dashpot that gives e with a force clipped at zero).
     friction : float
         Coulomb friction coefficient mu >= 0 (eqs. 1.17-1.18). 0 makes contacts frictionless:
         the run then uses a specialisation with no tangential code or history.
@@ -60,8 +83,10 @@ class Material:
     """
 
     density: float = 2500.0
-    kn: float = 1.0e3
+    kn: float | None = None
     kt: float | None = None
+    youngs_modulus: float | None = None
+    poisson_ratio: float | None = None
     restitution: float = 0.5
     friction: float = 0.5
     rolling_friction: float = 0.0
@@ -73,18 +98,44 @@ class Material:
 
     def __post_init__(self) -> None:
         set_ = object.__setattr__
+        hertz = self.youngs_modulus is not None
+        if hertz and (self.kn is not None or self.kt is not None):
+            raise ValueError(
+                "a material is either linear (kn, kt) or Hertzian (youngs_modulus, poisson_ratio), "
+                f"got kn={self.kn!r}, kt={self.kt!r} and youngs_modulus={self.youngs_modulus!r}")
+        if not hertz and self.poisson_ratio is not None:
+            raise ValueError(f"poisson_ratio={self.poisson_ratio!r} needs youngs_modulus (a "
+                             "Hertzian material); a linear material takes kn, kt")
         for name in _PARAMETERS:
             value = getattr(self, name)
+            if name == "kn" and value is None:
+                if hertz:
+                    continue
+                value = 1.0e3
             if name == "kt" and value is None:
+                if hertz:
+                    continue
                 value = 2.0 / 7.0 * self.kn  # kn comes first, already checked
+            if name == "youngs_modulus" and value is None:
+                continue
+            if name == "poisson_ratio" and value is None:
+                if not hertz:
+                    continue
+                value = 0.3
             set_(self, name, _check_field(name, value))
         _check_uniform_range(self.roughness_distribution, self.roughness)
         if self.name is not None and not isinstance(self.name, str):
             raise TypeError(f"name must be a string, got {self.name!r}")
 
+    @property
+    def hertzian(self) -> bool:
+        """Whether the material follows Hertz-Mindlin (given a Young's modulus)."""
+        return self.youngs_modulus is not None
+
     def _to_core(self) -> "_core.Material":
-        """The compiled core's Material (roughness in radians)."""
-        return _to_core(_core.Material, vars(self))
+        """The compiled core's Material (roughness in radians; the other law's fields at the
+        core's defaults, unused)."""
+        return _to_core(_core.Material, {k: v for k, v in vars(self).items() if v is not None})
 
 
 # Checks and units of the parameters, shared by Material and Simulation.set_pair. The core's
@@ -99,9 +150,12 @@ def _check_field(name: str, value):
         return _checks.in_range(name, value, 0.0, 1.0, lo_open=True, hi_open=False)
     if name == "roughness":
         return _checks.in_range(name, value, 0.0, 90.0, lo_open=False, hi_open=True)
+    if name == "poisson_ratio":
+        return _checks.in_range(name, value, -1.0, 0.5, lo_open=True, hi_open=False)
     if name in _core.choices:
         return _checks.choice(name, value, _core.choices[name])
-    return _checks.positive(name, value, allow_zero=name not in ("density", "kn"))
+    return _checks.positive(name, value, allow_zero=name not in (
+        "density", "kn", "youngs_modulus", "effective_modulus"))
 
 
 def _check_uniform_range(distribution: str, roughness: float) -> None:
@@ -113,7 +167,8 @@ def _check_uniform_range(distribution: str, roughness: float) -> None:
 def _to_core(cls, values):
     """``cls`` (_core.Material or _core.PairParams) from a mapping of its fields in the Python
     API's units."""
-    return cls(**{n: math.radians(values[n]) if n == "roughness" else values[n] for n in cls.fields})
+    return cls(**{n: math.radians(values[n]) if n == "roughness" else values[n] for n in cls.fields
+                  if n in values})
 
 
 def _from_core(params) -> dict:

@@ -56,6 +56,16 @@ class Simulation:
         then incremented by v_t dt (as LAMMPS, LIGGGHTS). "literal": the notes' eq. (1.14),
         which re-aims the whole accumulated length along the current v_t; offered for
         comparison (docs/physics.md).
+    hertz_force : {"signed", "repulsive"}
+        The normal force of Hertzian materials. "signed" (default): the dashpot of the beta
+        form (EDEM, LIGGGHTS, DEM-Engine, LAMMPS's tsuji damping), which gives the requested
+        restitution at every impact speed and lets the force pull slightly at the end of an
+        impact. "repulsive": the force is clipped at zero (it never pulls) and the dashpot is
+        raised so that the restitution is still the one requested (docs/physics.md).
+    impact_speed : float or None
+        The normal impact speed [m/s] at which a Hertzian scene's contact duration, default dt
+        and stability bound are evaluated (Hertzian contacts stiffen with speed). None: twice
+        the largest sphere speed when asked (two spheres meeting head on), at least 1 m/s.
     slip_rule : {"frozen", "truncate"}
         What a slipping contact does. "frozen" (default): the notes' (1.17)-(1.18), force
         mu |f_n| against the slip velocity, stored displacement kept. "truncate": LAMMPS's
@@ -76,7 +86,7 @@ class Simulation:
 
     def __init__(self, gravity=(0.0, 0.0, -9.81), dt=None, threads=None, seed: int = 0,
                  skin=None, tangential_history: str = "rotate", slip_rule: str = "frozen",
-                 max_overlap: float = 0.5,
+                 hertz_force: str = "signed", impact_speed=None, max_overlap: float = 0.5,
                  initial_overlap: float = 0.05, allow_unstable_dt: bool = False,
                  rebuild_every_step: bool = False, parallel_min: int = 2048):
         self._core = _core.Simulation()
@@ -98,6 +108,11 @@ class Simulation:
             raise ValueError("slip_rule='truncate' needs tangential_history='rotate', got "
                              f"{tangential_history!r}")
         self._core.slip_rule = slip_rule
+        _checks.choice("hertz_force", hertz_force, ("signed", "repulsive"))
+        self._core.repulsive = hertz_force == "repulsive"
+        if impact_speed is not None:
+            self._core.impact_speed = _checks.positive("impact_speed", impact_speed)
+        self._scene_materials: list[Material] = []
         self._core.max_overlap = _checks.positive("max_overlap", max_overlap)
         self._core.initial_overlap = _checks.positive("initial_overlap", initial_overlap, allow_zero=True)
         if not isinstance(allow_unstable_dt, bool):
@@ -162,9 +177,18 @@ class Simulation:
         return self._core.law_name()
 
     # ---- materials ---------------------------------------------------------------------------
-    def _material(self, material, name: str = "material") -> int:
+    def _material(self, material, name: str = "material", scene: bool = False) -> int:
         if not isinstance(material, Material):
             raise TypeError(f"{name} must be a tsubu.Material, got {material!r}")
+        if scene and all(m is not material for m in self._scene_materials):
+            for other in self._scene_materials:
+                if other.hertzian != material.hertzian:
+                    kinds = {True: "Hertzian (youngs_modulus)", False: "linear (kn, kt)"}
+                    raise ValueError(
+                        f"{name} {_label(material)} is {kinds[material.hertzian]} but the scene "
+                        f"already has {_label(other)}, which is {kinds[other.hertzian]}: a scene's "
+                        "spheres and walls all follow one contact law")
+            self._scene_materials.append(material)
         key = id(material)
         if key not in self._material_index:
             self._material_index[key] = self._core.add_material(material._to_core())
@@ -176,7 +200,9 @@ class Simulation:
 
         Keywords: ``kn``, ``kt``, ``restitution``, ``friction``, ``rolling_friction``,
         ``tangential_damping``, ``roughness`` (degrees), ``roughness_distribution``, ``shadow``,
-        with the meaning and units of :class:`Material`; those not given keep their mixed value.
+        with the meaning and units of :class:`Material`, and, for two Hertzian materials,
+        ``effective_modulus`` (E* [Pa], > 0) and ``effective_shear_modulus`` (G* [Pa], >= 0);
+        those not given keep their mixed value.
         """
         a = self._material(material_a, "material_a")
         b = self._material(material_b, "material_b")
@@ -185,6 +211,10 @@ class Simulation:
             if key not in p:
                 raise TypeError(f"set_pair got an unknown parameter {key!r}; expected one of {sorted(p)}")
             p[key] = _check_field(key, value)
+        if (p["effective_modulus"] > 0) != (material_a.hertzian and material_b.hertzian):
+            raise ValueError(
+                "effective_modulus must be > 0 for a pair of Hertzian materials and 0 otherwise, "
+                f"got {p['effective_modulus']!r}")
         _check_uniform_range(p["roughness_distribution"], p["roughness"])
         self._core.set_pair_parameters(a, b, _to_core(_core.PairParams, p))
 
@@ -211,7 +241,7 @@ class Simulation:
         x = _checks.points("positions", positions)
         n = x.shape[0]
         r = _checks.radii("radius", radius, n)
-        mat = self._material(material)
+        mat = self._material(material, scene=True)
         v = None if velocities is None else _checks.points("velocities", velocities, n)
         w = None if angular_velocities is None else _checks.points("angular_velocities", angular_velocities, n)
         first = self._core.add_spheres(x, r, np.full(n, mat, dtype=np.intc), v, w)
@@ -262,7 +292,7 @@ class Simulation:
         nrm = _checks.vec3("normal", normal)
         if math.hypot(*nrm) == 0:
             raise ValueError(f"normal must not be zero, got {normal!r}")
-        return self._core.add_plane(p, nrm, self._material(material), _checks.vec3("velocity", velocity),
+        return self._core.add_plane(p, nrm, self._material(material, scene=True), _checks.vec3("velocity", velocity),
                                     _checks.vec3("angular_velocity", angular_velocity))
 
     def set_plane_motion(self, wall: int, velocity=None, angular_velocity=None) -> None:
@@ -303,12 +333,27 @@ class Simulation:
         return self._core.critical_time_step()
 
     def contact_duration(self) -> float:
-        """The shortest contact duration t_c = pi/alpha (B.3, B.5) of the scene [s]."""
+        """The shortest contact duration of the scene [s]: t_c = pi/alpha (B.3, B.5) for the
+        linear law; for Hertzian materials Hertz's t_c = 2.87 (m*^2 / (R* E*^2 v))^(1/5) at the
+        impact speed v = ``characteristic_speed()``."""
         return self._core.contact_duration()
 
     def default_time_step(self) -> float:
-        """t_c / 50: the time step used when none is set [s]."""
+        """t_c / 50, and for Hertzian materials at most 0.2 ``rayleigh_time()``: the time step
+        used when none is set [s]."""
         return self._core.default_time_step()
+
+    def rayleigh_time(self) -> float:
+        """The Rayleigh time ``pi r sqrt(rho/G) / (0.1631 nu + 0.8766)`` [s] of the scene's
+        smallest Hertzian sphere (per material), G = E / (2 (1 + nu)): the time a Rayleigh
+        wave takes to cross it. Hertzian DEM codes keep dt below 0.1-0.3 of it. ``inf`` for a
+        linear scene."""
+        return self._core.rayleigh_time()
+
+    def characteristic_speed(self) -> float:
+        """The normal impact speed [m/s] a Hertzian scene's contact duration and bounds use:
+        ``impact_speed`` if given, else twice the largest sphere speed now, at least 1 m/s."""
+        return self._core.characteristic_speed()
 
     def run(self, steps: int | None = None, time: float | None = None, progress: bool = False) -> "Simulation":
         """Advance by ``steps`` steps or by ``time`` seconds (rounded to whole steps).
@@ -485,3 +530,7 @@ class Simulation:
     def __repr__(self) -> str:
         return (f"tsubu.Simulation({self.size} spheres, {self._core.plane_count} walls, "
                 f"t = {self.time:.6g} s, step {self.step_count})")
+
+
+def _label(material: Material) -> str:
+    return repr(material.name) if material.name is not None else repr(material)

@@ -25,7 +25,7 @@ ContactGeometry touching(double delta, double vn, const Vec3& vt) {
   g.vn = vn;
   g.vt = vt;
   g.m_eff = 1e-6;
-  g.damping = 0;
+  g.entry[0] = g.entry[1] = 0;
   return g;
 }
 
@@ -50,9 +50,12 @@ void test_normal() {
   const double m = 1e-6;
   const double le = std::log(0.5);
   const double eta = -2 * le * std::sqrt(m * p.kn / (M_PI * M_PI + le * le));  // (B.9)
-  CHECK_CLOSE(RestitutionDamping::coefficient(p, m, HookeNormal::stiffness(p)), eta, 1e-15);
-  const ContactGeometry g = touching(1e-6, -0.1, Vec3::Zero());
-  CHECK_CLOSE(HookeNormal::force(g, p, eta), p.kn * 1e-6 + eta * 0.1, 1e-15);  // (1.6)
+  CHECK_CLOSE(RestitutionDamping::coefficient(p, m, HookeNormal::stiffness(p, {m, 0, 0})), eta, 1e-15);
+  double q[1], power;
+  HookeNormal::pack(p, q);
+  const NormalState s = HookeNormal::state(q, nullptr, 1e-6);
+  CHECK_CLOSE(HookeNormal::force(q, s, 1e-6, eta, -0.1, power), p.kn * 1e-6 + eta * 0.1, 1e-15);  // (1.6)
+  CHECK_CLOSE(power, eta * 0.01, 1e-18);
   const PairParams elastic = params(1.0);
   CHECK_CLOSE(RestitutionDamping::coefficient(elastic, m, elastic.kn), 0.0, 0.0);  // e = 1: no dashpot
 }
@@ -135,7 +138,7 @@ void test_law_combination() {
   static_assert(
       ContactLaw<HookeNormal, RestitutionDamping, TangentialRotate, NoRolling, NoRoughness>::has_history);
   ContactGeometry g = touching(1e-6, -0.01, Vec3(1e-3, 0, 0));
-  g.damping = Frictionless::damping_term(p, g.m_eff);
+  Frictionless::entry_terms(p, g.m_eff, 0.25e-3, g.entry);
   Frictionless::History none;
   ContactResult res;
   Frictionless::evaluate(g, p, 1e-6, none, res);

@@ -16,12 +16,16 @@ namespace tsubu {
 
 // One material: every sphere and every wall has one. Defaults: soda-lime glass beads at a soft
 // stiffness (the shared reference scene's).
+// A material with a Young's modulus > 0 is Hertzian (HertzNormal, Mindlin's tangential spring);
+// its kn, kt are then unused.
 struct Material : HookeNormal::Params,
                   RestitutionDamping::Properties,
                   FrictionParams,
                   RollingParams,
                   RoughnessParams {
   double density = 2500.0;  // kg/m^3 (walls: unused)
+  double youngs_modulus = 0;  // E, Pa; 0: a linear (kn, kt) material
+  double poisson_ratio = 0.3;  // nu, in (-1, 0.5]
   Material() {
     kn = 1.0e3;
     kt = 2.0 / 7.0 * 1.0e3;
@@ -32,12 +36,17 @@ struct Material : HookeNormal::Params,
 
 // Parameters of one contact between two materials (or a material and a wall's material).
 struct PairParams : HookeNormal::Params,
+                    HertzNormal::Params,
                     RestitutionDamping::Params,
+                    HertzDamping::Params,
                     FrictionParams,
                     RollingParams,
                     RoughnessParams {
-  // Derived terms (the damping law's) from the parameters; after any change.
-  void finalise() { RestitutionDamping::finalise(*this); }
+  // Derived terms (the damping laws') from the parameters; after any change.
+  void finalise() {
+    RestitutionDamping::finalise(*this);
+    if (HertzParams::used(*this)) HertzDamping::finalise(*this);
+  }
 };
 
 // The mixing rule (docs/physics.md), each law's own: stiffnesses as half-springs in series,
@@ -45,7 +54,9 @@ struct PairParams : HookeNormal::Params,
 inline PairParams mix(const Material& a, const Material& b) {
   PairParams p;
   HookeNormal::mix(a, b, p);
+  HertzParams::mix(a, b, p);
   RestitutionDamping::mix(a, b, p);
+  HertzDamping::mix(a, b, p);
   FrictionParams::mix(a, b, p);
   RollingParams::mix(a, b, p);
   RoughnessParams::mix(a, b, p);

@@ -38,12 +38,29 @@ struct TypeList {
 };
 
 // The evaluators each slot can hold (contact/*.hpp).
-using NormalLaws = TypeList<HookeNormal>;
-using DampingLaws = TypeList<RestitutionDamping>;
-using TangentialLaws =
-    TypeList<NoTangential, TangentialRotate, TangentialLiteral, TangentialRotateTruncate>;
+using NormalLaws = TypeList<HookeNormal, HertzNormal>;
+using DampingLaws = TypeList<RestitutionDamping, HertzDamping>;
+using TangentialLaws = TypeList<NoTangential, TangentialRotate, TangentialLiteral,
+                                TangentialRotateTruncate, MindlinRotate, MindlinRotateTruncate>;
 using RollingLaws = TypeList<NoRolling, RollingFriction>;
 using RoughnessLaws = TypeList<NoRoughness, StochasticRoughness>;
+
+// The normal, damping and tangential laws that belong together (a Hertzian spring with the
+// Hertzian dashpot and Mindlin's tangential spring; a linear one with the restitution dashpot and
+// a linear tangential spring): each is compiled with every rolling and roughness law.
+template <class N, class D, class T>
+struct Core {
+  using normal = N;
+  using damping = D;
+  using tangential = T;
+};
+using CoreLaws = TypeList<Core<HookeNormal, RestitutionDamping, NoTangential>,
+                          Core<HookeNormal, RestitutionDamping, TangentialRotate>,
+                          Core<HookeNormal, RestitutionDamping, TangentialLiteral>,
+                          Core<HookeNormal, RestitutionDamping, TangentialRotateTruncate>,
+                          Core<HertzNormal, HertzDamping, NoTangential>,
+                          Core<HertzNormal, HertzDamping, MindlinRotate>,
+                          Core<HertzNormal, HertzDamping, MindlinRotateTruncate>>;
 
 // A scene's choice: one index per slot, into the lists above.
 struct LawKey {
@@ -56,13 +73,13 @@ using StepFunction = void (*)(Simulation&, long steps);
 struct CompiledLaw {
   StepFunction step;
   std::string (*name)();
-  double (*critical_time_step)(const PairParams&, double m_eff);
-  double (*contact_duration)(const PairParams&, double m_eff);
-  double (*damping_term)(const PairParams&, double m_eff);
-  double (*normal_energy)(const PairParams&, double overlap);
-  double (*elastic_force)(const PairParams&, double overlap);  // the normal spring's, no dashpot
+  double (*critical_time_step)(const PairParams&, const ContactScale&);
+  double (*contact_duration)(const PairParams&, const ContactScale&);
+  void (*entry_terms)(const PairParams&, double m_eff, double r_eff, double* terms);
+  double (*normal_energy)(const PairParams&, double overlap, double r_eff);
+  double (*elastic_force)(const PairParams&, double overlap, double r_eff);  // no dashpot
   double (*tangential_energy)(const PairParams&, const double* history);
-  int history_width, rough_width;
+  int entry_width, history_width, rough_width;
   bool torque, rolling;
 };
 

@@ -41,6 +41,12 @@ struct Options {
   bool allow_unstable_dt = false;    // run with dt above critical_time_step()
   bool rebuild_every_step = false;   // testing aid: rebuild the neighbour list every step
   std::uint64_t seed = 0;            // seed of the roughness draws (reproducible per contact)
+  // Hertzian contacts: clip F_n at zero (never pull), with the dashpot corrected to keep the
+  // restitution (HertzDamping); false: the beta form, which may pull at the end of an impact.
+  bool repulsive = false;
+  // The normal impact speed a Hertzian scene's contact duration and time-step bound are taken
+  // at, m/s; 0: characteristic_speed()'s default.
+  double impact_speed = 0;
 };
 
 struct Energy {
@@ -64,6 +70,8 @@ struct ContactInfo {
   Vec3 force;     // total contact force on i, N
   Vec3 torque_i;  // torque on i from this contact, N m
   Vec3 tangential_displacement;  // stored history xi, m (zero without friction)
+  double reduced_radius;  // R* = r_i r_j / (r_i + r_j); a wall: r_i
+  double contact_radius;  // a = sqrt(R* delta) as the Mindlin history keeps it; 0 otherwise
 };
 
 // Wall-clock time spent in each phase of the loop, summed over runs (for benchmarks).
@@ -130,11 +138,24 @@ class Simulation {
   // min over the scene's contact types of 4m / (eta + sqrt(eta^2 + 4 k m)), with the reduced
   // mass of the lightest pair (walls: the lightest particle), for the normal spring and, with
   // friction, the tangential spring (which acts on m/3.5 for a sphere that can roll).
+  // For a Hertzian scene, each bound is taken at the stiffest overlap of a head-on impact at
+  // characteristic_speed().
   double critical_time_step() const;
-  // Shortest contact duration t_c = pi/alpha (B.3, B.5) over the scene's contact types.
+  // Shortest contact duration over the scene's contact types: t_c = pi/alpha (B.3, B.5) for the
+  // linear law; Hertz's t_c = 2.87 (m*^2 / (R* E*^2 v))^(1/5) at characteristic_speed().
   double contact_duration() const;
-  // t_c / 50: contacts resolved by 50 steps.
+  // t_c / 50: contacts resolved by 50 steps; a Hertzian scene also keeps dt <= 0.2 x
+  // rayleigh_time() (the usual bound of Hertzian DEM codes, rarely the smaller).
   double default_time_step() const;
+  // The shortest Rayleigh time pi r sqrt(rho/G) / (0.1631 nu + 0.8766) over the scene's Hertzian
+  // spheres (the smallest sphere of each material); infinity if it has none.
+  double rayleigh_time() const;
+  // The normal impact speed a Hertzian scene's bounds are taken at: options().impact_speed, or
+  // twice the largest sphere speed (two spheres meeting head on), at least 1 m/s.
+  double characteristic_speed() const;
+  // Whether the scene's materials are Hertzian (given a Young's modulus); raises if it mixes
+  // them with linear ones.
+  bool hertzian() const;
   // The step a run uses: options().dt, or default_time_step() when that is 0.
   double time_step() const;
   void run(long steps);
@@ -244,9 +265,11 @@ class Simulation {
   Array<Index> pair_offset_, pair_partner_;
   Array<Index> near_offset_, near_owner_, near_partner_, near_rev_offset_, near_rev_;
   Array<double> near_cut2_;  // (r_i + r_j)^2
-  // The damping law's term of each near pair (ContactLaw::damping_term: for RestitutionDamping
-  // the dashpot itself), fixed while the pair is in the list: a square root saved per contact.
-  Array<double> near_damping_;
+  // The law's terms of each near pair (ContactLaw::entry_terms, CompiledLaw::entry_width per
+  // entry: for the linear law the dashpot itself; for Hertz sqrt(R*) and the dashpot's mass
+  // term), fixed while the pair is in the list: square roots saved per contact and step.
+  Array<double> near_entry_;
+  double speed_ = 1;  // characteristic_speed() when the run started
   // Particles with near-pair or near-wall entries: the only ones whose contacts can be summed;
   // and, per step, 1 for those with an entry in contact (set by the contact pass, cleared by
   // the particle pass).
@@ -322,7 +345,7 @@ class Simulation {
   void build_sum_entries();
   // near_reach_below_, near_reach_above_ and max_entries_ from the near lists.
   void measure_near();
-  // near_damping_ from the current pair table (after a refresh, or when parameters change).
+  // near_entry_ from the current pair table (after a refresh, or when parameters change).
   void cache_near_terms();
   // The energy a contact loses when it opens (its tangential spring; the engine releases).
   double spring_energy(int material_a, int material_b, const Array<double>& xi,

@@ -45,7 +45,7 @@ struct ContactGeometry {
   double vn;       // (v_i - v_j) . n, negative while approaching (1.8)
   Vec3 vt;         // tangential relative velocity of the contact points (1.12, lever c not r)
   double m_eff;    // reduced mass m_i m_j / (m_i + m_j); wall: m_i
-  double damping;  // the damping law's term (ContactLaw::damping_term; the loop keeps it per entry)
+  double entry[2]; // the law's entry terms (ContactLaw::entry_terms; the loop keeps them per entry)
   // Only filled for rolling friction:
   Vec3 w_rel;      // omega_i - omega_j (wall: omega_i - omega_wall)
   double ri, rj;   // radii (1.20); wall: rj = 0

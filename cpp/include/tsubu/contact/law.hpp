@@ -5,6 +5,7 @@
 #pragma once
 #include <cmath>
 #include <string>
+#include <type_traits>
 
 #include "../material.hpp"
 #include "geometry.hpp"
@@ -40,33 +41,40 @@ struct ContactLaw {
     Tangential::pack(p, q + kNormalParams);
   }
 
-  // The damping law's term for a contact of reduced mass m_eff, fixed while the pair is in the
-  // near list (the loop keeps it per entry); lane() turns it into the dashpot at an overlap.
-  static double damping_term(const PairParams& p, double m_eff) {
-    return Damping::entry_term(p, m_eff, Normal::stiffness(p));
+  // The terms of a contact of reduced mass m_eff and reduced radius r_eff fixed while the pair
+  // is in the near list (the loop keeps them per entry): the normal law's, then the damping
+  // law's. lane() turns them into the force at an overlap.
+  static constexpr int kEntryTerms = Normal::kEntryTerms + Damping::kEntryTerms;
+  static void entry_terms(const PairParams& p, double m_eff, double r_eff, double* e) {
+    Normal::entry_terms(p, r_eff, e);
+    Damping::entry_terms(p, m_eff, e + Normal::kEntryTerms);
   }
 
   // The normal and tangential laws of one contact in lane form (plain doubles, no branches): a
   // block of contacts runs it in a loop the compiler vectorises. Sets F (on i), n x F_t and the
-  // dissipated power; updates the tangential displacement xi. q: the packed parameters;
-  // damping: the entry's damping_term.
-  TSUBU_INLINE static void lane(L3 n, L3 vt, double delta, double vn, double damping,
-                                const double* q, double dt, L3& xi, L3& force, L3& n_cross_ft,
-                                double& power) {
-    const double eta_n = Damping::lane(damping, q, delta);
-    const double fn = Normal::lane(q, delta, eta_n, vn);
+  // dissipated power; updates the tangential history xi (and aux, its fourth value where the law
+  // keeps one). q: the packed parameters; e: the entry's terms. Returns the signed f_n.
+  TSUBU_INLINE static double lane(L3 n, L3 vt, double delta, double vn, const double* e,
+                                  const double* q, double dt, L3& xi, double& aux, L3& force,
+                                  L3& n_cross_ft, double& power) {
+    const NormalState s = Normal::state(q, e, delta);
+    const double eta_n = Damping::lane(e + Normal::kEntryTerms, s);
+    const double fn = Normal::force(q, s, delta, eta_n, vn, power);
     force = fn * n;
-    power = eta_n * vn * vn;
     if constexpr (Tangential::enabled) {
-      const double* t = q + kNormalParams;  // kt, mu, eta_t / eta_n
-      const L3 ft = Tangential::lane(n, vt, t[0], t[2] * eta_n, t[1] * std::abs(fn), dt, xi, power);
+      const double* t = q + kNormalParams;  // k_t (or its scale), mu, eta_t / eta_n
+      Tangential::follow(t, s, dt, xi, aux, power);
+      const L3 ft = Tangential::lane(n, vt, Tangential::stiffness(t, s), t[2] * eta_n,
+                                     t[1] * std::abs(fn), dt, xi, power);
       force = force + ft;
       n_cross_ft = cross(n, ft);
     } else {
       (void)vt;
       (void)xi;
+      (void)aux;
       (void)n_cross_ft;
     }
+    return fn;
   }
 
   // One contact measured in g (the Eigen form: single contacts and the C++ tests).
@@ -75,8 +83,11 @@ struct ContactLaw {
     double q[kLaneParams > 0 ? kLaneParams : 1];
     pack(p, q);
     L3 xi{0, 0, 0}, force, nxft{0, 0, 0};
+    double aux = 0;
     if constexpr (has_history) xi = {h.xi[0], h.xi[1], h.xi[2]};
-    lane(lanes(g.n), lanes(g.vt), g.delta, g.vn, g.damping, q, dt, xi, force, nxft, out.power);
+    if constexpr (history_width > 3) aux = h.xi[3];
+    out.fn = lane(lanes(g.n), lanes(g.vt), g.delta, g.vn, g.entry, q, dt, xi, aux, force, nxft,
+                  out.power);
     if constexpr (has_history) {
       h.xi[0] = xi.x;
       h.xi[1] = xi.y;
@@ -84,22 +95,20 @@ struct ContactLaw {
     } else {
       (void)h;
     }
-    out.fn = Normal::lane(q, g.delta, Damping::lane(g.damping, q, g.delta), g.vn);
+    if constexpr (history_width > 3) h.xi[3] = aux;
     out.force = vec(force);
     out.n_cross_ft = vec(nxft);
     if constexpr (Rolling::enabled) out.roll = Rolling::evaluate(g, p, std::abs(out.fn), dt);
   }
 
   // ---- energy ------------------------------------------------------------------------------
-  // What the normal spring of a contact with overlap delta holds.
-  static double normal_energy(const PairParams& p, double delta) {
-    return Normal::elastic_energy(p, delta);
+  // What the normal spring of a contact with overlap delta and reduced radius r_eff holds.
+  static double normal_energy(const PairParams& p, double delta, double r_eff) {
+    return Normal::elastic_energy(p, delta, r_eff);
   }
   // The normal spring's force at overlap delta (no dashpot).
-  static double elastic_force(const PairParams& p, double delta) {
-    double q[kNormalParams];
-    Normal::pack(p, q);
-    return Normal::lane(q, delta, 0.0, 0.0);
+  static double elastic_force(const PairParams& p, double delta, double r_eff) {
+    return Normal::elastic_force(p, delta, r_eff);
   }
   // What the tangential spring with history xi (history_width values) holds; 0 without one.
   static double tangential_energy(const PairParams& p, const double* xi) {
@@ -111,26 +120,49 @@ struct ContactLaw {
     (void)p, (void)xi;
     return 0;
   }
+  // Whether a pair's parameters give it a tangential force under this law.
+  static bool friction_used(const PairParams& p) {
+    if constexpr (Tangential::enabled) return Tangential::used(p);
+    (void)p;
+    return false;
+  }
 
   // ---- time-step bounds --------------------------------------------------------------------
-  // The normal oscillation's angular frequency (B.3) for reduced mass m.
-  static double oscillation_rate(const PairParams& p, double m) {
-    return Normal::oscillation_rate(p, m, Damping::coefficient(p, m, Normal::stiffness(p)));
+  // The normal stiffness of a contact at scale s (a linear spring's; a Hertzian contact's at the
+  // peak of an impact at the scale's speed) and its dashpot there.
+  static double stiffness(const PairParams& p, const ContactScale& s) { return Normal::stiffness(p, s); }
+  static double dashpot(const PairParams& p, const ContactScale& s) {
+    return Damping::coefficient(p, s.mass, stiffness(p, s));
   }
-  // How long an impact of reduced mass m lasts (B.5).
-  static double contact_duration(const PairParams& p, double m) {
-    return M_PI / oscillation_rate(p, m);
+  // The normal oscillation's angular frequency (B.3) at scale s.
+  static double oscillation_rate(const PairParams& p, const ContactScale& s) {
+    const double m = s.mass, eta = dashpot(p, s);
+    return std::sqrt(stiffness(p, s) / m - eta * eta / (4 * m * m));
   }
-  // The largest stable dt of symplectic Euler for a contact of reduced mass m (2.31), with the
-  // tangential spring where the law has one.
-  static double critical_time_step(const PairParams& p, double m) {
-    const double eta_n = Damping::coefficient(p, m, Normal::stiffness(p));
-    double bound = euler_bound(m, Normal::stiffness(p), eta_n);
+  // How long an impact at scale s lasts: pi / alpha (B.5) for a linear spring; Hertz's
+  // t_c = 2.87 (m*^2 / (R* E*^2 v))^(1/5) (Johnson 1985, eq. 11.24) for a Hertzian contact.
+  static double contact_duration(const PairParams& p, const ContactScale& s) {
+    if constexpr (std::is_same_v<Normal, HertzNormal>)
+      return 2.868265 * std::pow(s.mass * s.mass / (s.radius * p.effective_modulus *
+                                                     p.effective_modulus * s.speed), 0.2);
+    return M_PI / oscillation_rate(p, s);
+  }
+  // The largest stable dt of symplectic Euler for a contact at scale s (2.31), with the
+  // tangential spring where the law has one (for a Hertzian contact: at the stiffest overlap of
+  // an impact at the scale's speed).
+  static double critical_time_step(const PairParams& p, const ContactScale& s) {
+    const double m = s.mass, eta_n = dashpot(p, s);
+    double bound = euler_bound(m, stiffness(p, s), eta_n);
     // A sphere that can roll moves its contact point under a tangential force as a mass m/3.5
     // would (1/m + c^2/I = 3.5/m).
     if constexpr (Tangential::enabled)
-      if (FrictionParams::used(p))
-        bound = std::min(bound, euler_bound(m / 3.5, p.kt, p.tangential_damping * eta_n));
+      if (friction_used(p)) {
+        double q[Tangential::kLaneParams];
+        Tangential::pack(p, q);
+        const double size = std::sqrt(stiffness(p, s) / (2.0 * std::max(p.effective_modulus, 1e-300)));
+        const double kt = Tangential::stiffness(q, NormalState{stiffness(p, s), size});
+        bound = std::min(bound, euler_bound(m / 3.5, kt, p.tangential_damping * eta_n));
+      }
     return bound;
   }
   // Symplectic Euler of m x'' = -k x - eta x' (dashpot on the old velocity, as the loop does) is

@@ -5,6 +5,7 @@
 #include <cmath>
 
 #include "geometry.hpp"
+#include "normal.hpp"
 
 namespace tsubu {
 
@@ -48,10 +49,15 @@ struct TangentialSpring {
     q[1] = p.friction;
     q[2] = p.tangential_damping;
   }
+  static bool used(const FrictionParams& p) { return FrictionParams::used(p); }
   // The energy of the spring with displacement xi; q as packed.
   static double elastic_energy(const double* q, const double* xi) {
     return 0.5 * q[0] * (xi[0] * xi[0] + xi[1] * xi[1] + xi[2] * xi[2]);
   }
+  // k_t at the contact's normal state: a linear spring's is fixed.
+  TSUBU_INLINE static double stiffness(const double* q, const NormalState&) { return q[0]; }
+  // What the history does when the normal state changes: nothing for a fixed k_t.
+  TSUBU_INLINE static void follow(const double*, const NormalState&, double, L3&, double&, double&) {}
 };
 
 namespace detail {
@@ -153,5 +159,50 @@ struct TangentialLiteral : TangentialSpring {
     return detail::tangential<TangentialLiteral>(g, p, eta_t, fn_abs, dt, h, power);
   }
 };
+
+// Mindlin's tangential spring for Hertzian contacts: k_t = 8 G* a, a = sqrt(R* delta) (Mindlin
+// 1949; Di Renzo & Di Maio 2004), with the history and slip rule of TangentialRotateRule. k_t
+// changes with the overlap, so the stored displacement must follow it (docs/physics.md):
+//  - loading (a > a_old): xi is scaled by a_old / a, so F_t = k_t xi does not jump: a tangential
+//    force changes only through tangential motion, as in an incremental law (a displacement
+//    kept as it is would gain 1/2 (k_t - k_t,old) xi^2 of energy from nowhere);
+//  - unloading (a < a_old): xi is kept, so F_t falls with k_t (Thornton, Cummins & Cleary 2013's
+//    rule for a shrinking contact area; Mindlin & Deresiewicz 1953).
+// Either way the spring's energy 1/2 k_t |xi|^2 only falls; what it loses is booked as
+// dissipated. The history keeps a, the fourth value, so that the energy a history holds is known
+// from the history alone.
+template <bool kTruncate>
+struct MindlinRule : TangentialRotateRule<kTruncate> {
+  static constexpr const char* name = kTruncate ? "mindlin(rotate, truncate)" : "mindlin(rotate)";
+  static constexpr int history_width = 4;
+  struct History { double xi[4]; };
+  // Lanes read 8 G*, mu, eta_t / eta_n.
+  template <class P>
+  static void pack(const P& p, double* q) {
+    q[0] = 8.0 * p.effective_shear_modulus;
+    q[1] = p.friction;
+    q[2] = p.tangential_damping;
+  }
+  template <class P>
+  static bool used(const P& p) { return p.friction > 0 && p.effective_shear_modulus > 0; }
+  // 1/2 k_t |xi|^2 with the k_t of the stored a.
+  static double elastic_energy(const double* q, const double* xi) {
+    return 0.5 * q[0] * xi[3] * (xi[0] * xi[0] + xi[1] * xi[1] + xi[2] * xi[2]);
+  }
+  TSUBU_INLINE static double stiffness(const double* q, const NormalState& s) { return q[0] * s.size; }
+  TSUBU_INLINE static void follow(const double* q, const NormalState& s, double dt, L3& xi,
+                                  double& a_old, double& power) {
+    const double a = s.size;
+    const bool loading = a_old < a;
+    const double scale = loading ? a_old / a : 1.0;
+    const double u2 = dot(xi, xi);
+    // 1/2 8G* (a_old - a scale^2) |xi|^2 >= 0
+    power += (0.5 * q[0] * u2 * (a_old - a * scale * scale)) * (1.0 / dt);
+    xi = scale * xi;
+    a_old = a;
+  }
+};
+using MindlinRotate = MindlinRule<false>;
+using MindlinRotateTruncate = MindlinRule<true>;
 
 }  // namespace tsubu

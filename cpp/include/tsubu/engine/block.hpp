@@ -28,6 +28,7 @@ struct Blocked {
   using C = Contacts<Law>;
   static constexpr int kParams = Law::kLaneParams;
   static constexpr int kHistory = Law::history_width;
+  static constexpr int kEntry = Law::kEntryTerms;
 
   struct alignas(64) Block {
     // Walls: normal, tangential and normal velocity. Pairs: relative velocity and the spins'
@@ -35,9 +36,11 @@ struct Blocked {
     // vectorised loop.
     double nx[kBlock], ny[kBlock], nz[kBlock], vtx[kBlock], vty[kBlock], vtz[kBlock], vn[kBlock];
     double vrx[kBlock], vry[kBlock], vrz[kBlock], spx[kBlock], spy[kBlock], spz[kBlock];
-    double delta[kBlock], damping[kBlock];  // overlap, the damping law's term
+    double delta[kBlock];
+    double entry[kEntry][kBlock];   // the entry's terms (ContactLaw::entry_terms), one column each
     double param[kParams][kBlock];  // the law's packed pair parameters, one column each
     double xix[kBlock], xiy[kBlock], xiz[kBlock];
+    double xia[kHistory > 3 ? kBlock : 1];  // a history's fourth value, where it has one
     double fx[kBlock], fy[kBlock], fz[kBlock], tx[kBlock], ty[kBlock], tz[kBlock], power[kBlock];
     bool inside[kBlock];
 
@@ -82,7 +85,7 @@ struct Blocked {
     // b.inside may alias anything, and gcc would reload each of them after it.
     const Index *const own = c.own, *const par = c.par;
     const double *const r = c.r, *const v = c.v, *const w = c.w, *const cut2 = c.cut2;
-    const double *const damping = c.damping, *const history = c.xi;
+    const double *const entry = c.entry, *const history = c.xi;
     const double limit = c.limit;
     double most = excess;
     for (int a = 0; a < len; ++a) {
@@ -100,11 +103,13 @@ struct Blocked {
       const bool inside = dist2 < cut2[q];  // (1.10); else the contact has just opened
       b.inside[a] = inside;
       if (inside) most = std::max(most, delta - limit * std::min(ri, rj));
-      b.delta[a] = delta, b.damping[a] = damping[q];
+      b.delta[a] = delta;
+      for (int k = 0; k < kEntry; ++k) b.entry[k][a] = entry[kEntry * q + k];
       if constexpr (!kSame) b.put_params(a, (*c.table)(c.mat[i], c.mat[j]));
       if constexpr (F::kHistory) {
         const double* xi = history + kHistory * q;
         b.xix[a] = xi[0], b.xiy[a] = xi[1], b.xiz[a] = xi[2];
+        if constexpr (kHistory > 3) b.xia[a] = xi[3];
       }
     }
     excess = most;
@@ -136,12 +141,14 @@ struct Blocked {
         vt = {b.vtx[a], b.vty[a], b.vtz[a]};
         vn = b.vn[a];
       }
-      double q[kParams];
+      double q[kParams], e[kEntry];
       for (int k = 0; k < kParams; ++k) q[k] = b.param[k][a];
+      for (int k = 0; k < kEntry; ++k) e[k] = b.entry[k][a];
       L3 xi{b.xix[a], b.xiy[a], b.xiz[a]}, f, t{0, 0, 0};
-      double power;
-      Law::lane(n, vt, b.delta[a], vn, b.damping[a], q, dt, xi, f, t, power);
+      double aux = kHistory > 3 ? b.xia[kHistory > 3 ? a : 0] : 0.0, power;
+      Law::lane(n, vt, b.delta[a], vn, e, q, dt, xi, aux, f, t, power);
       b.xix[a] = xi.x, b.xiy[a] = xi.y, b.xiz[a] = xi.z;
+      if constexpr (kHistory > 3) b.xia[a] = aux;
       b.fx[a] = f.x, b.fy[a] = f.y, b.fz[a] = f.z;
       b.tx[a] = t.x, b.ty[a] = t.y, b.tz[a] = t.z;
       b.power[a] = power;
@@ -171,6 +178,7 @@ struct Blocked {
         t[0] = b.tx[a], t[1] = b.ty[a], t[2] = b.tz[a];
         double* xi = r.xi + kHistory * q;
         xi[0] = b.xix[a], xi[1] = b.xiy[a], xi[2] = b.xiz[a];
+        if constexpr (kHistory > 3) xi[3] = b.xia[a];
       }
       lost = b.power[a] * dt;
     } else {
@@ -225,11 +233,15 @@ struct Blocked {
       const double vn = C::wall_approach(c, P, i, n, delta, ci, vt);
       b.nx[a] = n.x(), b.ny[a] = n.y(), b.nz[a] = n.z();
       b.vtx[a] = vt.x(), b.vty[a] = vt.y(), b.vtz[a] = vt.z();
-      b.delta[a] = delta, b.vn[a] = vn, b.damping[a] = Law::damping_term(p, c.m[i]);
+      b.delta[a] = delta, b.vn[a] = vn;
+      double terms[kEntry];
+      Law::entry_terms(p, c.m[i], ri, terms);  // (a wall: R* = r_i, m* = m_i)
+      for (int k = 0; k < kEntry; ++k) b.entry[k][a] = terms[k];
       b.put_params(a, p);
       if constexpr (F::kHistory) {
         const double* xi = c.wxi + kHistory * e[a];
         b.xix[a] = xi[0], b.xiy[a] = xi[1], b.xiz[a] = xi[2];
+        if constexpr (kHistory > 3) b.xia[a] = xi[3];
       }
     }
     const bool bad = evaluate<false>(b, scan, len, c.dt, fmax);  // (the scan is not read)

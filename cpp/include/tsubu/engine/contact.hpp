@@ -94,7 +94,7 @@ struct Contacts {
     if constexpr (F::kRough) {
       if (params.roughness > 0) {  // a facet spring still loaded is lost with it
         const double o = Rough<Law>::pair_overlap(c.rough + F::kRoughWidth * q, d, rs - std::sqrt(dist2));
-        if (o > 0) lost += Law::normal_energy(params, o);
+        if (o > 0) lost += Law::normal_energy(params, o, c.r[c.own[q]] * c.r[c.par[q]] / rs);
       }
     }
     (void)d;
@@ -119,7 +119,7 @@ struct Contacts {
     const Vec3 n = d * inv_dist;
     g.n = n;
     excess = std::max(excess, g.delta - c.limit * std::min(ri, rj));
-    g.damping = c.damping[q];
+    std::copy(c.entry + Law::kEntryTerms * q, c.entry + Law::kEntryTerms * (q + 1), g.entry);
     if constexpr (F::kRough) g.m_eff = c.m[i] * c.m[j] / (c.m[i] + c.m[j]);
     const Vec3 vrel = vec3(c.v, i) - vec3(c.v, j);
     if constexpr (F::kTorque) {
@@ -133,7 +133,8 @@ struct Contacts {
                                    c.step};
         double virtual_overlap = 0;
         const Vec3 spin = (g.ci * vec3(c.w, i) + g.cj * vec3(c.w, j)).cross(n);
-        g.n = Rough<Law>::pair(params, n, d, g.delta, vrel, spin, g.m_eff, c.touch[q],
+        g.n = Rough<Law>::pair(params, n, d, g.delta, vrel, spin,
+                               ContactScale{g.m_eff, ri * rj / rs, c.speed}, c.touch[q],
                                c.rough + F::kRoughWidth * q, stream, dt, virtual_overlap);
         if (!(virtual_overlap > 0))  // not (or no longer) pressed across the facet
           return c.touch[q] ? end_pair(c, q, params, d, rs, dist2) : 0.0;
@@ -201,7 +202,7 @@ struct Contacts {
         if (c.moving) vw -= P.velocity_at(Plane::contact_point(xi_pos, ri, n));
         const ContactStream stream{c.seed, std::uint64_t(c.ids[i]),
                                    ContactStream::kWallTag + std::uint64_t(c.wall[e]), c.step};
-        Rough<Law>::wall(params, P, xi_pos, ri, vw, c.m[i], c.wtouch[e],
+        Rough<Law>::wall(params, P, xi_pos, ri, vw, ContactScale{c.m[i], ri, c.speed}, c.wtouch[e],
                          c.wrough + F::kRoughWidth * e, stream, dt, n, delta);
       }
     }
@@ -215,7 +216,7 @@ struct Contacts {
     g.delta = delta;
     excess = std::max(excess, delta - c.limit * ri);
     g.m_eff = c.m[i];
-    g.damping = Law::damping_term(params, g.m_eff);
+    Law::entry_terms(params, g.m_eff, ri, g.entry);  // (a wall: R* = r_i)
     g.cj = 0;
     g.vn = wall_approach(c, P, i, n, delta, g.ci, g.vt);
     if constexpr (F::kRolling) {

@@ -5,6 +5,7 @@
 #pragma once
 #include <algorithm>
 #include <cmath>
+#include <type_traits>
 
 #include "../contact/roughness.hpp"
 #include "../walls/plane.hpp"
@@ -16,10 +17,12 @@ template <class Law>
 struct Rough {
   // A rough contact older than two contact durations is an enduring contact, not an impact: its
   // tilt is dropped, so spheres at rest do not roll down virtual facets.
-  static bool enduring(const PairParams& p, double m, const double* st, std::uint64_t step,
-                       double dt) {
+  static bool enduring(const PairParams& p, const ContactScale& s, const double* st,
+                       std::uint64_t step, double dt) {
     if (st[0] == 0 && st[1] == 0 && st[2] == 0) return false;
-    return (double(step) - st[4]) * dt > 2.0 * M_PI / Law::oscillation_rate(p, m);
+    if constexpr (std::is_same_v<typename Law::normal, HertzNormal>)
+      return (double(step) - st[4]) * dt > 2.0 * Law::contact_duration(p, s);
+    return (double(step) - st[4]) * dt > 2.0 * M_PI / Law::oscillation_rate(p, s);
   }
 
   // Rough pair: at first touch a tilted normal n' is drawn and frozen for the impact, and the
@@ -29,7 +32,7 @@ struct Rough {
   // (older than 2 t_c) turns back to the line of centres with the overlap kept:
   // delta' = delta + H. Returns n' (n once enduring) and sets delta' (<= 0: no contact).
   static Vec3 pair(const PairParams& p, const Vec3& n, const Vec3& xij, double delta,
-                   const Vec3& vrel, const Vec3& spin, double m, bool active, double* st,
+                   const Vec3& vrel, const Vec3& spin, const ContactScale& scale, bool active, double* st,
                    const ContactStream& stream, double dt, double& overlap) {
     if (!active) {
       const Vec3 tilt = draw_tilt(p, n, vrel, false, stream);
@@ -38,7 +41,7 @@ struct Rough {
       st[3] = std::min(delta, -vrel.dot(np) * dt) + np.dot(xij);  // H: starts at <= one step
       st[4] = double(stream.step);
       st[5] = 0.0;
-    } else if (!(st[0] == 0 && st[1] == 0 && st[2] == 0) && enduring(p, m, st, stream.step, dt)) {
+    } else if (!(st[0] == 0 && st[1] == 0 && st[2] == 0) && enduring(p, scale, st, stream.step, dt)) {
       const double current = st[3] - Eigen::Map<const Vec3>(st).dot(xij) + st[5];
       std::fill(st, st + 3, 0.0);
       st[3] = current - delta;
@@ -66,7 +69,7 @@ struct Rough {
   // most one step of approach. On entry n is the wall normal and delta the real overlap; on
   // exit they are the facet's normal and overlap (<= 0: no contact).
   static void wall(const PairParams& p, const Plane& P, const Vec3& x, double r, const Vec3& vrel,
-                   double m, bool active, double* st, const ContactStream& stream, double dt,
+                   const ContactScale& scale, bool active, double* st, const ContactStream& stream, double dt,
                    Vec3& n, double& delta) {
     if (!active) {
       // A facet contact starts when the sphere touches the real wall while approaching it.
@@ -81,7 +84,7 @@ struct Rough {
       const Vec3 np = tilted_normal(n, st);
       const double start = std::min(delta, -vrel.dot(np) * dt);
       st[3] = P.distance(x, np) - r + start;
-    } else if (enduring(p, m, st, stream.step, dt)) {
+    } else if (enduring(p, scale, st, stream.step, dt)) {
       // Settle onto a facet parallel to the wall, with the overlap (and energy) unchanged.
       const Vec3 old = tilted_normal(n, st);
       const double overlap = r - (P.distance(x, old) - st[3]);

@@ -14,8 +14,9 @@ struct ContactView {
   const int* mat;
   const Id* ids;
   const Index *own, *par, *wown, *wall, *wnear, *owned;
-  const double *cut2, *damping;  // (r_i + r_j)^2, the damping law's term
+  const double *cut2, *entry;  // (r_i + r_j)^2, the law's entry terms (ContactLaw::entry_terms)
   double limit;  // max_overlap
+  double speed;  // the scene's characteristic impact speed (Simulation::characteristic_speed)
   double *xi, *force, *nxft, *roll, *overlap, *rough;
   double *wxi, *wforce, *wnxft, *wroll, *woverlap, *wrough;
   std::uint8_t *touch, *wtouch;
@@ -40,8 +41,8 @@ struct ContactView {
         inv_i(s.particles_.inv_inertia.data()), mat(s.particles_.material.data()),
         ids(s.particles_.id.data()), own(s.near_owner_.data()), par(s.near_partner_.data()),
         wown(s.wall_owner_.data()), wall(s.wall_index_.data()), wnear(s.wall_near_.data()),
-        owned(s.near_offset_.data()), cut2(s.near_cut2_.data()), damping(s.near_damping_.data()),
-        limit(s.opt_.max_overlap), xi(s.pair_state_.xi.data()), force(s.pair_state_.force.data()),
+        owned(s.near_offset_.data()), cut2(s.near_cut2_.data()), entry(s.near_entry_.data()),
+        limit(s.opt_.max_overlap), speed(s.speed_), xi(s.pair_state_.xi.data()), force(s.pair_state_.force.data()),
         nxft(s.pair_state_.nxft.data()), roll(s.pair_state_.roll.data()),
         overlap(s.pair_state_.overlap.data()), rough(s.pair_state_.rough.data()),
         wxi(s.wall_state_.xi.data()), wforce(s.wall_state_.force.data()),
