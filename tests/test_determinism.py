@@ -34,11 +34,12 @@ SCENES = {
     "friction": {},
     "rolling": {"rolling_friction": 0.1},
     "literal": {"history": "literal"},
+    "hertz": {"hertz": True},
 }
 
 
 def box_scene(threads: int, rolling_friction: float = 0.0, history: str = "rotate",
-              seed: int = 11, skin=None) -> tsubu.Simulation:
+              seed: int = 11, skin=None, hertz: bool = False) -> tsubu.Simulation:
     """300 spheres, radii 0.25-0.48 mm, on a jittered lattice (no initial overlap) in a
     6 mm box, gravity 100 m/s^2 (so that a dense pile forms within SETTLE_STEPS), random velocities
     (0.1 m/s) and spins (50 rad/s); floor translating and rotating, walls of another material."""
@@ -47,13 +48,18 @@ def box_scene(threads: int, rolling_friction: float = 0.0, history: str = "rotat
                                 indexing="ij"), -1).reshape(-1, 3)[:300]
     pos = (grid + 0.5) * SPACING + rng.uniform(-0.01, 0.01, grid.shape) * SPACING
     radii = rng.uniform(0.25e-3, 0.48e-3, len(pos))
-    mat = tsubu.Material(density=2500.0, kn=1e3, restitution=0.5, friction=0.5,
-                         rolling_friction=rolling_friction)
-    wall = tsubu.Material(density=2500.0, kn=2e3, restitution=0.7, friction=0.3,
-                          rolling_friction=rolling_friction)
+    # (hertz: Hertz-Mindlin materials of about the linear ones' stiffness at these overlaps)
+    elastic = [dict(youngs_modulus=5e6, poisson_ratio=0.3), dict(youngs_modulus=1e7, poisson_ratio=0.25)] \
+        if hertz else [dict(kn=1e3), dict(kn=2e3)]
+    mat = tsubu.Material(density=2500.0, restitution=0.5, friction=0.5,
+                         rolling_friction=rolling_friction, **elastic[0])
+    wall = tsubu.Material(density=2500.0, restitution=0.7, friction=0.3,
+                          rolling_friction=rolling_friction, **elastic[1])
     # parallel_min=0: really use the threads (small scenes otherwise run on one).
     sim = tsubu.Simulation(gravity=(0.0, 0.0, -100.0), dt=DT, threads=threads,
-                           tangential_history=history, skin=skin, parallel_min=0)
+                           tangential_history=history, skin=skin, parallel_min=0,
+                           impact_speed=0.5 if hertz else None,
+                           initial_overlap=0.2 if hertz else 0.05)  # (a soft Hertzian pile)
     sim.add_spheres(pos, radii, mat, velocities=rng.normal(0.0, 0.1, (len(pos), 3)),
                     angular_velocities=rng.normal(0.0, 50.0, (len(pos), 3)))
     sim.add_plane(point=(0.5 * SIDE, 0.5 * SIDE, 0.0), normal=(0.0, 0.0, 1.0), material=wall,
