@@ -59,7 +59,7 @@ class Simulation:
     hertz_force : {"signed", "repulsive"}
         The normal force of Hertzian materials. "signed" (default): the dashpot of the beta
         form (EDEM, LIGGGHTS, DEM-Engine, LAMMPS's tsuji damping), which gives the requested
-        restitution at every impact speed and lets the force pull slightly at the end of an
+        restitution at every impact speed and lets the force pull at the end of an
         impact. "repulsive": the force is clipped at zero (it never pulls) and the dashpot is
         raised so that the restitution is still the one requested (docs/physics.md).
     impact_speed : float or None
