@@ -44,6 +44,21 @@ def test_material_rejects_bad_values(field, value, pattern):
         make_material(**{field: value})
 
 
+@pytest.mark.parametrize("field, value, pattern", [
+    ("youngs_modulus", 0.0, r"youngs_modulus.*0\.0"),
+    ("youngs_modulus", -1e9, r"youngs_modulus.*-1"),
+    ("youngs_modulus", INF, r"youngs_modulus.*inf"),
+    ("youngs_modulus", NAN, r"youngs_modulus.*nan"),
+    ("poisson_ratio", -1.0, r"poisson_ratio.*-1\.0"),
+    ("poisson_ratio", 0.51, r"poisson_ratio.*0\.51"),
+    ("poisson_ratio", NAN, r"poisson_ratio.*nan"),
+])
+def test_hertzian_material_rejects_bad_values(field, value, pattern):
+    kwargs = {"youngs_modulus": 1e9, field: value}
+    with pytest.raises(ValueError, match=pattern):
+        tsubu.Material(**kwargs)
+
+
 @pytest.mark.parametrize("field, value", [
     ("density", "2500"), ("kn", "1e3"), ("restitution", True), ("name", 3)])
 def test_material_rejects_non_numbers(field, value):
@@ -277,6 +292,9 @@ def test_plane_with_zero_normal_is_refused(ref_sim, ref_material):
     (dict(max_overlap=0.0), ValueError, r"max_overlap.*0\.0"),
     (dict(initial_overlap=-0.1), ValueError, r"initial_overlap.*-0\.1"),
     (dict(allow_unstable_dt="yes"), TypeError, r"allow_unstable_dt.*'yes'"),
+    (dict(hertz_force="clipped"), ValueError, r"hertz_force.*'clipped'"),
+    (dict(impact_speed=-1.0), ValueError, r"impact_speed.*-1\.0"),
+    (dict(impact_speed=NAN), ValueError, r"impact_speed.*nan"),
 ])
 def test_simulation_options_are_checked(kwargs, exc, pattern):
     with pytest.raises(exc, match=pattern):
