@@ -50,7 +50,7 @@ void test_normal() {
   const double m = 1e-6;
   const double le = std::log(0.5);
   const double eta = -2 * le * std::sqrt(m * p.kn / (M_PI * M_PI + le * le));  // (B.9)
-  CHECK_CLOSE(RestitutionDamping::coefficient(p, m, HookeNormal::stiffness(p, {m, 0, 0})), eta, 1e-15);
+  CHECK_CLOSE(RestitutionDamping::coefficient(p, m, HookeNormal::stiffest(p, {m, 0, 0}).stiffness), eta, 1e-15);
   double q[1], power;
   HookeNormal::pack(p, q);
   const NormalState s = HookeNormal::state(q, nullptr, 1e-6);

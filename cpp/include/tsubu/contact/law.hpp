@@ -130,7 +130,7 @@ struct ContactLaw {
   // ---- time-step bounds --------------------------------------------------------------------
   // The normal stiffness of a contact at scale s (a linear spring's; a Hertzian contact's at the
   // peak of an impact at the scale's speed) and its dashpot there.
-  static double stiffness(const PairParams& p, const ContactScale& s) { return Normal::stiffness(p, s); }
+  static double stiffness(const PairParams& p, const ContactScale& s) { return Normal::stiffest(p, s).stiffness; }
   static double dashpot(const PairParams& p, const ContactScale& s) {
     return Damping::coefficient(p, s.mass, stiffness(p, s));
   }
@@ -159,8 +159,7 @@ struct ContactLaw {
       if (friction_used(p)) {
         double q[Tangential::kLaneParams];
         Tangential::pack(p, q);
-        const double size = std::sqrt(stiffness(p, s) / (2.0 * std::max(p.effective_modulus, 1e-300)));
-        const double kt = Tangential::stiffness(q, NormalState{stiffness(p, s), size});
+        const double kt = Tangential::stiffness(q, Normal::stiffest(p, s));
         bound = std::min(bound, euler_bound(m / 3.5, kt, p.tangential_damping * eta_n));
       }
     return bound;

@@ -57,9 +57,9 @@ struct HookeNormal {
     return 0.5 * p.kn * delta * delta;
   }
   static double elastic_force(const Params& p, double delta, double /*r_eff*/) { return p.kn * delta; }
-  // The stiffness of the spring (the same at every overlap), for the stability bound and the
+  // The state of the spring (the same at every overlap), for the stability bound and the
   // contact duration.
-  static double stiffness(const Params& p, const ContactScale&) { return p.kn; }
+  static NormalState stiffest(const Params& p, const ContactScale&) { return {p.kn, 1.0}; }
 };
 
 // Hertz's elastic sphere: F_n = (4/3) E* sqrt(R*) delta^(3/2) (Johnson 1985, eq. 4.22), with the
@@ -130,9 +130,10 @@ struct HertzNormal {
     return std::pow(15.0 * s.mass * s.speed * s.speed /
                         (16.0 * p.effective_modulus * std::sqrt(s.radius)), 0.4);
   }
-  // The stiffest the contact gets in such an impact: S_n at delta_max.
-  static double stiffness(const Params& p, const ContactScale& s) {
-    return 2.0 * p.effective_modulus * std::sqrt(s.radius * peak_overlap(p, s));
+  // The stiffest the contact gets in such an impact: S_n = 2 E* a at a = sqrt(R* delta_max).
+  static NormalState stiffest(const Params& p, const ContactScale& s) {
+    const double a = std::sqrt(s.radius * peak_overlap(p, s));
+    return {2.0 * p.effective_modulus * a, a};
   }
 };
 
