@@ -33,8 +33,10 @@ What is compared:
     analyser (``reference_scene.summary``). The drop is chaotic and the integrators differ
     (LAMMPS: velocity Verlet, tsubu: symplectic Euler), so the tolerances are the linear drop's
     (KE 5 %, mean height 0.1 %, contacts 3 % or 2 sqrt(count), whichever is larger). The pair
-    contacts sampled every 100 steps and averaged over the last 1,000 are printed too (not
-    checked): late in the drop the count changes by up to ~6 % between samples. Loop times of
+    contacts are checked as their mean over the last 1,000 steps, sampled every 100: late in the
+    drop the bottom layers compact and the count jumps by up to ~6 % between samples 100 steps
+    apart, in both codes, so one snapshot measures when a jump happened more than the law (the
+    end snapshot is printed for information; docs/benchmarks.md has the series). Loop times of
     both codes are printed for information (one run each; ``compare_lammps.py --scenes
     hertz-drop hertz-bed`` measures speed properly). ``--diagnose`` reruns the drop in LAMMPS
     with its other Mindlin history models and both codes without friction.
@@ -622,10 +624,19 @@ def main(argv=None) -> int:
                 nfail += 1
             else:
                 sl, st = rl["summary"], rt["summary"]
+                # The pair-contact count of one snapshot late in the drop jumps by up to ~6 % between
+                # samples 100 steps apart (the bottom layers compact), in both codes; it is checked as
+                # its mean over the last WINDOW steps, the snapshot is printed for information.
+                ml, mt = window_mean(rl["series"], steps), window_mean(rt["series"], steps)
                 print(f"  {'quantity':<20} {'LAMMPS':>14} {'tsubu':>14} {'rel. diff':>10} {'tolerance':>26}  result")
                 checks = []
                 for k, label in QUANTITIES:
                     a, b = st[k], sl[k]
+                    if k == "pair_contacts" and ml is not None and mt is not None:
+                        print(f"  {'pair contacts, end':<20} {b:>14d} {a:>14d} {100 * _rel(a, b):>+9.3f}% "
+                              f"{'(snapshot, for information)':>26}")
+                        a, b = mt, ml
+                        label = f"pair contacts, mean"
                     rel = _rel(a, b)
                     allowed = TOL_DROP[k] * abs(b)
                     if k.endswith("contacts"):
@@ -633,7 +644,8 @@ def main(argv=None) -> int:
                     ok = abs(a - b) <= allowed
                     nfail += not ok
                     fmt = (lambda x: f"{x:.5e}") if k == "ke_total" else (
-                        (lambda x: f"{x:.7f}") if k == "mean_z" else (lambda x: f"{x:d}"))
+                        (lambda x: f"{x:.7f}") if k == "mean_z" else (lambda x: f"{x:.1f}" if isinstance(x, float)
+                                                                       else f"{x:d}"))
                     tol = (f"max({100 * TOL_DROP[k]:.0f} %, 2 sqrt n) = {allowed:.0f}" if k.endswith("contacts")
                            else f"{100 * TOL_DROP[k]:.2g} %")
                     print(f"  {label:<20} {fmt(b):>14} {fmt(a):>14} {100 * rel:>+9.3f}% {tol:>26}  "
@@ -643,11 +655,9 @@ def main(argv=None) -> int:
                                  ("mean_pair_overlap_over_d", "mean pair overlap / d"),
                                  ("max_wall_overlap_over_d", "max wall overlap / d")):
                     print(f"  {label:<20} {sl[k]:>14.4e} {st[k]:>14.4e}  (for information)")
-                ml, mt = window_mean(rl["series"], steps), window_mean(rt["series"], steps)
                 if ml is not None and mt is not None:
-                    print(f"  {'pair contacts, mean':<20} {ml:>14.1f} {mt:>14.1f} {100 * _rel(mt, ml):>+9.3f}%  over steps "
-                          f"{max(0, steps - WINDOW)}-{steps}, sampled every {SAMPLE_EVERY} (for information: "
-                          f"late in the drop the count changes by up to ~6 % between samples)")
+                    print(f"  (pair contacts, mean: over steps {max(0, steps - WINDOW)}-{steps}, sampled every "
+                          f"{SAMPLE_EVERY} steps)")
                     results["drop"]["window_mean_pair_contacts"] = {"lammps": ml, "tsubu": mt, "rel": _rel(mt, ml)}
                 results["drop"]["checks"] = checks
                 ratel = n * rl["timed_steps"] / rl["loop_s"]
