@@ -456,11 +456,15 @@ class Simulation:
         start = _time.perf_counter()
         done = 0
         try:
-            while done < steps and not self._core.stopped:
-                done += self._advance(min(chunk, steps - done))
+            while done < steps:
+                asked = min(chunk, steps - done)
+                taken = self._advance(asked)
+                done += taken
                 rate = self._core.size * done / max(_time.perf_counter() - start, 1e-9)
                 print(f"\r[tsubu] step {done}/{steps}  t = {self._core.time:.6g} s  "
                       f"{rate / 1e6:.2f} M particle-steps/s", end="", file=sys.stderr, flush=True)
+                if taken < asked:  # request_stop()
+                    break
         finally:
             print(file=sys.stderr)
 
@@ -475,8 +479,9 @@ class Simulation:
         """Ask the run in progress (in another thread) to return after its current step, with
         :attr:`stopped` True; the state is then that of that step, and running on continues bit
         for bit (see :meth:`run`). Callable from any thread at any time (it only sets a flag).
-        A request made while no run is in progress makes the next run return before its first
-        step; a run clears the request when it returns."""
+        The request stays until a run stops on it: one made while no run is in progress, or too
+        late for the run in progress to see it (during its last step), makes the next run
+        return before its first step."""
         self._core.request_stop()
 
     @property

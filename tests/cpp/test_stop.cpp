@@ -155,8 +155,11 @@ void test_request_stop_from_a_signal_handler() {
 
 void test_pending_request_and_concurrent_runs() {
   Simulation s = lattice(1);
-  // A request made between runs stops the next one before its first step, and is then gone.
+  // A request made between runs stops the next one before its first step (a run of no steps
+  // leaves it), and is then gone.
   s.request_stop();
+  CHECK(s.run(0) == 0);
+  CHECK(!s.stopped());
   CHECK(s.run(5) == 0);
   CHECK(s.stopped() && s.step_count() == 0);
   CHECK(s.run(2) == 2);

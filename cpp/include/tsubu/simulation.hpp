@@ -173,8 +173,9 @@ class Simulation {
   long run(long steps, const std::function<bool()>& should_stop = {}, double poll_seconds = 0.02);
   // Asks the run in progress to return after its current step (see run()). Thread-safe and
   // async-signal-safe (one lock-free atomic store): callable from another thread or a signal
-  // handler. A request made while no run is in progress stops the next run before its first
-  // step; a run clears the request when it returns.
+  // handler. The request stays until a run stops on it (or throws): one made while no run is in
+  // progress, or too late for the run in progress to see it (during its last step), stops the
+  // next run before its first step.
   void request_stop() noexcept { stop_.on.store(true, std::memory_order_relaxed); }
   // Whether the last run returned before taking all its steps because a stop was requested.
   bool stopped() const { return stopped_; }
