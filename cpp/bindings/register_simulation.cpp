@@ -22,9 +22,36 @@ void enum_option(py::class_<Sim>& cls, const char* name, E tsubu::Options::*memb
       [member](Sim& s, const std::string& v) { s.options().*member = parse<E>(v); });
 }
 
+// Python runs signal handlers on its main thread only.
+unsigned long main_thread_ident = 0;
+constexpr double kSignalPollSeconds = 0.02;
+
+// Runs with the GIL released. On the main thread, every 20 ms of wall time the run takes the
+// GIL back to run pending signal handlers: one that raises (SIGINT's KeyboardInterrupt) stops
+// the run after its current step, and the exception is raised here once the run has returned.
+long run_checking_signals(Sim& s, long steps) {
+  std::optional<py::error_already_set> raised;
+  const std::function<bool()> check_signals = [&raised] {
+    py::gil_scoped_acquire gil;
+    if (PyErr_CheckSignals() == 0) return false;
+    raised.emplace();  // takes the error from Python's error indicator
+    return true;
+  };
+  const bool on_main = PyThread_get_thread_ident() == main_thread_ident;
+  long taken;
+  {
+    py::gil_scoped_release release;
+    taken = on_main ? s.run(steps, check_signals, kSignalPollSeconds) : s.run(steps);
+  }
+  if (raised) throw *raised;
+  return taken;
+}
+
 }  // namespace
 
 void register_simulation(py::class_<Sim>& cls) {
+  main_thread_ident = py::module_::import("threading").attr("main_thread")().attr("ident")
+                          .cast<unsigned long>();
   using namespace pybind11::literals;
   cls.def(py::init<>())
       .def("add_material", &Sim::add_material, "material"_a)
@@ -93,7 +120,10 @@ void register_simulation(py::class_<Sim>& cls) {
       .def("rayleigh_time", &Sim::rayleigh_time)
       .def("characteristic_speed", &Sim::characteristic_speed)
       .def("time_step", &Sim::time_step)
-      .def("run", &Sim::run, "steps"_a, py::call_guard<py::gil_scoped_release>())
+      .def("run", &run_checking_signals, "steps"_a)
+      .def("request_stop", &Sim::request_stop)
+      .def_property_readonly("stopped", &Sim::stopped)
+      .def_property_readonly("running", &Sim::running)
       .def_property_readonly("step_count", &Sim::step_count)
       .def_property_readonly("time", &Sim::time)
       .def("law_name", &Sim::law_name)

@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <stdexcept>
 #include <sstream>
 #include <type_traits>
 
@@ -418,18 +419,41 @@ void Simulation::prepare_run() {
   ran_ = true;
 }
 
-void Simulation::run(long steps) {
+long Simulation::run(long steps, const std::function<bool()>& should_stop, double poll_seconds) {
   require(steps >= 0, "steps must be >= 0, got " + std::to_string(steps));
+  if (running_.on.exchange(true, std::memory_order_acquire))
+    throw std::logic_error("tsubu: Simulation::run: the Simulation is running in another thread");
+  // However the run ends: no poll left behind, the Simulation free again; a stop request is
+  // cleared by the run that stops on it (below) or that fails, and otherwise kept for the next.
+  struct Finish {
+    Simulation& s;
+    bool failed = true;
+    ~Finish() {
+      s.poll_ = nullptr;
+      if (failed) s.stop_.on.store(false, std::memory_order_relaxed);
+      s.running_.on.store(false, std::memory_order_release);
+    }
+  } finish{*this};
+  stopped_ = false;
+  const long start = step_;
   if (n_ == 0 || steps == 0) {
-    if (n_ == 0 && steps > 0) {
+    if (n_ == 0 && steps > 0 && !stop_.on.load(std::memory_order_relaxed)) {
       prepare_run();
       step_ += steps;
       time_ += steps * dt_;
     }
-    return;
+  } else {
+    prepare_run();
+    poll_ = should_stop ? &should_stop : nullptr;
+    poll_every_ = std::chrono::duration_cast<std::chrono::steady_clock::duration>(
+        std::chrono::duration<double>(std::max(poll_seconds, 0.0)));
+    next_poll_ = std::chrono::steady_clock::now() + poll_every_;
+    if (!stop_.on.load(std::memory_order_relaxed)) law_->step(*this, steps);
   }
-  prepare_run();
-  law_->step(*this, steps);
+  finish.failed = false;
+  stopped_ = step_ - start < steps;
+  if (stopped_) stop_.on.store(false, std::memory_order_relaxed);
+  return step_ - start;
 }
 
 // ---- checks and errors -------------------------------------------------------------------

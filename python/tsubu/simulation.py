@@ -2,8 +2,10 @@
 
 from __future__ import annotations
 
+import functools
 import math
 import sys
+import threading
 import time as _time
 
 import numpy as np
@@ -25,6 +27,55 @@ class InstabilityError(RuntimeError):
         self.particle = particle
 
 
+def _one_thread_at_a_time(*any_thread: str):
+    """Class decorator: every public method and property of the class, but those named, runs
+    under the instance's lock; while a run is in progress (``_running``) calls are refused.
+
+    Only ``run`` releases the GIL, so a run is the one call that can overlap another thread's
+    use of the engine: calls made meanwhile raise RuntimeError instead of racing with it. A
+    call that finds another thread in a short call waits for it (unless that call turns out
+    to be a run)."""
+
+    def guard(function):
+        @functools.wraps(function)
+        def guarded(self, *args, **kwargs):
+            lock = self._lock
+            if not lock.acquire(blocking=False):
+                while True:
+                    if self._running:
+                        raise RuntimeError(
+                            "Simulation is running in another thread: a Simulation is used by "
+                            "one thread at a time (request_stop() ends the run; wait for run to "
+                            "return)")
+                    if lock.acquire(timeout=0.005):
+                        break
+            try:
+                if self._running:  # this thread's own run: a signal handler called during it
+                    raise RuntimeError(
+                        f"Simulation.{function.__name__} called during the Simulation's own run "
+                        "(from a signal handler or a callback): wait for run to return")
+                return function(self, *args, **kwargs)
+            finally:
+                lock.release()
+
+        return guarded
+
+    def decorate(cls):
+        for name, member in list(vars(cls).items()):
+            if name in any_thread or (name.startswith("_") and name != "__len__"):
+                continue
+            if isinstance(member, property):
+                setattr(cls, name, property(guard(member.fget),
+                                            None if member.fset is None else guard(member.fset),
+                                            doc=member.__doc__))
+            elif callable(member):
+                setattr(cls, name, guard(member))
+        return cls
+
+    return decorate
+
+
+@_one_thread_at_a_time("request_stop", "running")
 class Simulation:
     """Rigid spheres with Kelvin-Voigt contacts, plane walls and gravity.
 
@@ -82,6 +133,15 @@ class Simulation:
         Run even if dt exceeds the stability bound (the instability check still applies).
     rebuild_every_step : bool
         Rebuild the neighbour list every step (a testing aid; results are identical).
+
+    Threads
+    -------
+    Runs release the GIL, so several Simulations can run at once from several threads (with
+    the same results as one after the other). One Simulation is used by one thread at a time:
+    while it runs, a call from another thread (another run, a setter, reading an array, ...)
+    raises RuntimeError("Simulation is running in another thread ..."); only
+    :meth:`request_stop` and :attr:`running` may be called meanwhile. Calls that overlap a
+    short call of another thread wait for it.
     """
 
     def __init__(self, gravity=(0.0, 0.0, -9.81), dt=None, threads=None, seed: int = 0,
@@ -89,6 +149,8 @@ class Simulation:
                  hertz_force: str = "signed", impact_speed=None, max_overlap: float = 0.5,
                  initial_overlap: float = 0.05, allow_unstable_dt: bool = False,
                  rebuild_every_step: bool = False, parallel_min: int = 2048):
+        self._lock = threading.RLock()  # _one_thread_at_a_time
+        self._running = False  # True while the engine runs (and the GIL is released)
         self._core = _core.Simulation()
         self._materials: list[Material] = []
         self._material_index: dict[int, int] = {}
@@ -360,7 +422,18 @@ class Simulation:
 
         Releases the GIL. Raises InstabilityError if the run goes unstable (the last good state
         stays readable) and ValueError for a dt above the stability bound or initial overlaps.
-        ``progress=True`` prints progress to stderr.
+        ``progress=True`` prints progress to stderr. Returns the Simulation.
+
+        A run stops early, at a step boundary, on Ctrl-C (SIGINT) or :meth:`request_stop`: Ctrl-C
+        is noticed within 20 ms of wall time plus one step and raises KeyboardInterrupt (any
+        exception raised by a Python signal handler is raised the same way); a requested stop
+        returns normally, with :attr:`stopped` True. Either way the state is that of the last
+        completed step (positions, velocities, spins, contact history, ``step_count`` and
+        ``time`` agree), and running the remaining steps, ``run(steps=requested -
+        (step_count - step_count_before))``, gives the same bits as a run that never stopped.
+        Signals are checked only when run is called from the main thread (the only one Python
+        runs signal handlers on). While it runs, the Simulation refuses calls from other
+        threads (see the class's Threads section).
         """
         if (steps is None) == (time is None):
             raise TypeError("run needs exactly one of steps= or time=")
@@ -368,28 +441,60 @@ class Simulation:
             t = _checks.positive("time", time, allow_zero=True)
             steps = int(round(t / self.dt))
         steps = _checks.whole("steps", steps)
-        if not progress:
-            self._advance(steps)
-            return self
+        self._running = True
+        try:
+            if not progress:
+                self._advance(steps)
+                return self
+            self._run_with_progress(steps)
+        finally:
+            self._running = False
+        return self
+
+    def _run_with_progress(self, steps: int) -> None:
         chunk = max(1, steps // 50)
         start = _time.perf_counter()
         done = 0
-        while done < steps:
-            k = min(chunk, steps - done)
-            self._advance(k)
-            done += k
-            rate = self.size * done / max(_time.perf_counter() - start, 1e-9)
-            print(f"\r[tsubu] step {done}/{steps}  t = {self.time:.6g} s  "
-                  f"{rate / 1e6:.2f} M particle-steps/s", end="", file=sys.stderr, flush=True)
-        print(file=sys.stderr)
-        return self
-
-    def _advance(self, steps: int) -> None:
         try:
-            self._core.run(steps)
+            while done < steps:
+                asked = min(chunk, steps - done)
+                taken = self._advance(asked)
+                done += taken
+                rate = self._core.size * done / max(_time.perf_counter() - start, 1e-9)
+                print(f"\r[tsubu] step {done}/{steps}  t = {self._core.time:.6g} s  "
+                      f"{rate / 1e6:.2f} M particle-steps/s", end="", file=sys.stderr, flush=True)
+                if taken < asked:  # request_stop()
+                    break
+        finally:
+            print(file=sys.stderr)
+
+    def _advance(self, steps: int) -> int:
+        try:
+            return self._core.run(steps)
         except _core.InstabilityError as e:
             message, step, particle = e.args
             raise InstabilityError(message, step, particle) from None
+
+    def request_stop(self) -> None:
+        """Ask the run in progress (in another thread) to return after its current step, with
+        :attr:`stopped` True; the state is then that of that step, and running on continues bit
+        for bit (see :meth:`run`). Callable from any thread at any time (it only sets a flag).
+        The request stays until a run stops on it: one made while no run is in progress, or too
+        late for the run in progress to see it (during its last step), makes the next run
+        return before its first step."""
+        self._core.request_stop()
+
+    @property
+    def running(self) -> bool:
+        """Whether a run of this Simulation is in progress (in any thread). Readable at any
+        time, from any thread."""
+        return self._running
+
+    @property
+    def stopped(self) -> bool:
+        """Whether the last run returned before all its steps because of :meth:`request_stop`
+        or a signal (Ctrl-C)."""
+        return self._core.stopped
 
     @property
     def time(self) -> float:
@@ -528,6 +633,8 @@ class Simulation:
         return self._core.memory_bytes()
 
     def __repr__(self) -> str:
+        if self._running:  # its state is being written by the run
+            return "tsubu.Simulation(running)"
         return (f"tsubu.Simulation({self.size} spheres, {self._core.plane_count} walls, "
                 f"t = {self.time:.6g} s, step {self.step_count})")
 

@@ -4,7 +4,9 @@
 // every neighbour rebuild; every accessor speaks in stable ids (the order of addition).
 #pragma once
 #include <array>
+#include <atomic>
 #include <chrono>
+#include <functional>
 #include <string>
 #include <utility>
 #include <vector>
@@ -96,6 +98,7 @@ class PhaseTimer {
     sums_[int(p)] += std::chrono::duration<double>(now - last_).count();
     last_ = now;
   }
+  std::chrono::steady_clock::time_point last() const { return last_; }
 
  private:
   std::array<double, int(Phase::Count)>& sums_;
@@ -158,7 +161,26 @@ class Simulation {
   bool hertzian() const;
   // The step a run uses: options().dt, or default_time_step() when that is 0.
   double time_step() const;
-  void run(long steps);
+  // Runs `steps` steps and returns how many it took: all of them, unless a stop was requested
+  // (request_stop(), or `should_stop` returning true). A stopped run returns at a step boundary,
+  // after the step in progress, and leaves the state of that step (positions, velocities, spins,
+  // contact history, step_count(), time() agree); a later run continues from it bit for bit as
+  // if the run had not stopped. `should_stop`, if given, is called on the running thread
+  // between two steps, at most once every `poll_seconds` of wall time (the Python binding checks
+  // for Ctrl-C with it); it must not throw nor touch this Simulation.
+  // A Simulation is used by one thread at a time, but for request_stop() and running(): a run
+  // started while another thread's run of it is in progress throws std::logic_error.
+  long run(long steps, const std::function<bool()>& should_stop = {}, double poll_seconds = 0.02);
+  // Asks the run in progress to return after its current step (see run()). Thread-safe and
+  // async-signal-safe (one lock-free atomic store): callable from another thread or a signal
+  // handler. The request stays until a run stops on it (or throws): one made while no run is in
+  // progress, or too late for the run in progress to see it (during its last step), stops the
+  // next run before its first step.
+  void request_stop() noexcept { stop_.on.store(true, std::memory_order_relaxed); }
+  // Whether the last run returned before taking all its steps because a stop was requested.
+  bool stopped() const { return stopped_; }
+  // Whether a run is in progress (in any thread).
+  bool running() const noexcept { return running_.on.load(std::memory_order_acquire); }
   long step_count() const { return step_; }
   double time() const { return time_; }
   std::string law_name() const;  // the compiled specialisation the next run uses
@@ -313,6 +335,30 @@ class Simulation {
   Array<std::uint8_t> old_touch_;
   Array<double> scratch_;
   Array<int> scratch_int_;
+
+  // Run control. The flags are read and set across threads (request_stop, running); a copy of
+  // a Simulation starts with them clear.
+  struct Flag {
+    std::atomic<bool> on{false};
+    Flag() = default;
+    Flag(const Flag&) {}
+    Flag& operator=(const Flag&) { return *this; }
+  };
+  static_assert(std::atomic<bool>::is_always_lock_free, "request_stop() must be signal-safe");
+  Flag stop_, running_;
+  bool stopped_ = false;
+  const std::function<bool()>* poll_ = nullptr;  // run()'s should_stop, while it runs
+  std::chrono::steady_clock::duration poll_every_{};
+  std::chrono::steady_clock::time_point next_poll_;
+  // Whether the run must end before its next step: a stop was requested, or the poll (called
+  // when its interval has passed by `now`) asked for one, which is then kept as a request.
+  bool stop_due(std::chrono::steady_clock::time_point now) {
+    if (poll_ && now >= next_poll_) {
+      next_poll_ = now + poll_every_;
+      if ((*poll_)()) request_stop();
+    }
+    return stop_.on.load(std::memory_order_relaxed);
+  }
 
   // Run state.
   long step_ = 0;

@@ -8,7 +8,8 @@
 // arrays are streamed, and results are bit-identical for any thread count and any rebuild
 // schedule. In large scenes, whose arrays do not stay in cache from one pass to the next, a
 // step's particle pass and the next step's contact pass are one sweep (fused_pass.hpp) whenever
-// no neighbour list can fall due in between.
+// no neighbour list can fall due in between. A run stops early, on request, only where a
+// run's last step would end: after a two-pass step.
 #pragma once
 #include <algorithm>
 #include <cmath>
@@ -50,6 +51,9 @@ struct Stepper {
     Found found;
     for (long k = 0; k < steps; ++k) {
       if (!ready) {
+        // A stop (Simulation::request_stop) ends the run here, between two steps. A fused step
+        // has begun the next one: a stop found when deciding to fuse it makes it the last.
+        if (s.stop_due(clock.last())) break;
         if (s.needs_rebuild()) {
           s.rebuild(true);
         } else if (s.needs_refresh()) {
@@ -65,7 +69,7 @@ struct Stepper {
       if (found.excess > 0) s.report_overlap(dt);
       if (found.bad) s.report_nonfinite();
       ready = fuse && k > 0 && k + 1 < steps && (s.step_ + 1) % Simulation::kEnergyCheck != 0 &&
-              fusable(s, dt, vmax2, found, min_mass);
+              fusable(s, dt, vmax2, found, min_mass) && !s.stop_due(clock.last());
       s.fused_steps_ += ready ? 1 : 0;
       const ParticleView pv(s, dt);
       const bool nonfinite =
