@@ -323,3 +323,33 @@ def test_default_dt_runs_a_hertzian_pile_stably():
     assert np.all(np.isfinite(sim.positions))
     assert sim.energy()["kinetic"] < 1e-3 * 64 * 4.2e-6 * 9.81 * 5e-3
     assert sim.positions[:, 2].max() < 9e-3
+
+
+def test_default_dt_is_fixed_by_the_first_run_so_split_runs_give_the_same_bits():
+    """The default characteristic speed (twice the largest sphere speed, >= 1 m/s) is taken when
+    the first run starts and kept: spheres falling faster later must not change dt, or run(a) +
+    run(b) would differ from run(a + b). Adding spheres takes it again."""
+    mat = tsubu.Material(density=RHO, youngs_modulus=5e6, restitution=0.5, friction=0.5)
+
+    def scene():
+        sim = tsubu.Simulation(threads=1)
+        sim.add_spheres([[0, 0, 2 * R], [0, 0, 0.2]], R, mat, velocities=[[0, 0, 0], [0, 0, -0.2]])
+        sim.add_plane(material=mat)
+        return sim
+
+    whole, split = scene(), scene()
+    dt0 = whole.dt
+    assert whole.characteristic_speed() == 1.0  # 2 x 0.2 m/s < 1 m/s
+    steps = int(0.25 / dt0)  # the upper sphere falls to ~2.6 m/s: 2v > 1 m/s
+    whole.run(steps=steps)
+    split.run(steps=steps // 3)
+    assert np.linalg.norm(split.velocities, axis=1).max() > 1.0  # 2v would now give a smaller dt
+    assert split.dt == dt0
+    split.run(steps=steps - steps // 3)
+    assert whole.dt == dt0 and split.dt == dt0
+    for name in ("positions", "velocities", "angular_velocities"):
+        assert np.array_equal(getattr(whole, name), getattr(split, name)), name
+    # new spheres: the speed (and with it the default dt) is measured again
+    split.add_spheres([[0.01, 0, 2 * R]], R, mat, velocities=[[0, 0, -5.0]])
+    assert split.characteristic_speed() == pytest.approx(10.0)
+    assert split.dt < dt0

@@ -200,6 +200,7 @@ Id Simulation::add_spheres(std::size_t n, const double* positions, const double*
   }
   list_valid_ = false;
   energy_ref_valid_ = false;
+  speed_fixed_ = 0;  // taken again at the next run
   return first;
 }
 
@@ -323,6 +324,7 @@ double Simulation::rayleigh_time() const {
 
 double Simulation::characteristic_speed() const {
   if (opt_.impact_speed > 0) return opt_.impact_speed;
+  if (speed_fixed_ > 0) return speed_fixed_;
   double v2 = 0;
   for (std::size_t k = 0; k < n_; ++k) v2 = std::max(v2, vec3(particles_.v.data(), k).squaredNorm());
   return std::max(1.0, 2.0 * std::sqrt(v2));
@@ -396,6 +398,9 @@ void Simulation::prepare_run() {
   require(!(opt_.slip == SlipRule::Truncate && opt_.history == HistoryRule::Literal),
           "the truncate slip rule needs the rotate tangential history");
   mix_pairs();
+  // The default speed is taken once, at the first run after spheres were added: a scene's
+  // default dt must not change between runs, or splitting a run would change its result.
+  if (!(opt_.impact_speed > 0) && !(speed_fixed_ > 0)) speed_fixed_ = characteristic_speed();
   speed_ = characteristic_speed();
   dt_ = time_step();
   require(std::isfinite(dt_) && dt_ > 0,

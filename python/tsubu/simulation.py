@@ -116,7 +116,9 @@ class Simulation:
     impact_speed : float or None
         The normal impact speed [m/s] at which a Hertzian scene's contact duration, default dt
         and stability bound are evaluated (Hertzian contacts stiffen with speed). None: twice
-        the largest sphere speed when asked (two spheres meeting head on), at least 1 m/s.
+        the largest sphere speed (two spheres meeting head on), at least 1 m/s, measured when
+        asked before the first run and fixed by the first run (until spheres are added), so
+        that the default dt stays the same from one run to the next.
     slip_rule : {"frozen", "truncate"}
         What a slipping contact does. "frozen" (default): the notes' (1.17)-(1.18), force
         mu |f_n| against the slip velocity, stored displacement kept. "truncate": LAMMPS's

@@ -154,7 +154,9 @@ class Simulation {
   // spheres (the smallest sphere of each material); infinity if it has none.
   double rayleigh_time() const;
   // The normal impact speed a Hertzian scene's bounds are taken at: options().impact_speed, or
-  // twice the largest sphere speed (two spheres meeting head on), at least 1 m/s.
+  // twice the largest sphere speed (two spheres meeting head on), at least 1 m/s, taken at the
+  // first run after spheres were last added and kept from then on (so that the default dt does
+  // not change from one run to the next).
   double characteristic_speed() const;
   // Whether the scene's materials are Hertzian (given a Young's modulus); raises if it mixes
   // them with linear ones.
@@ -292,6 +294,7 @@ class Simulation {
   // term), fixed while the pair is in the list: square roots saved per contact and step.
   Array<double> near_entry_;
   double speed_ = 1;  // characteristic_speed() when the run started
+  double speed_fixed_ = 0;  // the default characteristic speed, fixed at the first run; 0: not yet
   // Particles with near-pair or near-wall entries: the only ones whose contacts can be summed;
   // and, per step, 1 for those with an entry in contact (set by the contact pass, cleared by
   // the particle pass).
