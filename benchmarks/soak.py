@@ -141,6 +141,7 @@ def soak_moving(args) -> bool:
     sim, side = settled_pack(args.nx, args.nz, args.threads, rolling_friction=args.rolling_friction,
                              floor_roughness=args.roughness)
     floor = 0
+    sim.dt = sim.dt * args.dt_scale
     print(f"{sim.size} beads settled for {sim.time:.3f} s ({sim.step_count} steps), law {sim.law}; "
           f"now {args.steps} more steps of dt = {sim.dt:.4g} s with the floor (roughness "
           f"{args.roughness} deg) sliding at +-{args.speed} m/s along x, reversing every "
@@ -210,6 +211,9 @@ def main(argv=None) -> int:
     ap.add_argument("--reverse", type=int, default=100_000, help="moving: steps between reversals")
     ap.add_argument("--roughness", type=float, default=10.0, help="moving: floor roughness [deg]")
     ap.add_argument("--rolling-friction", type=float, default=0.05, help="moving: rolling friction")
+    ap.add_argument("--dt-scale", type=float, default=1.0,
+                    help="moving: dt after settling, relative to the settling dt (the balance "
+                         "residual is first order in dt: halving dt halves it)")
     args = ap.parse_args(argv)
     ok = soak_fixed(args) if args.scene == "fixed" else soak_moving(args)
     print("bounded" if ok else "NOT BOUNDED")
