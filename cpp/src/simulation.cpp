@@ -397,8 +397,13 @@ void Simulation::prepare_run() {
   mix_pairs();
   speed_ = characteristic_speed();
   dt_ = time_step();
-  require(std::isfinite(dt_) && dt_ > 0,
-          "no time step: the scene has no possible contact to derive one from; set dt");
+  require(std::isfinite(dt_) && dt_ > 0, [&] {
+    return n_ == 0 || materials_.empty()
+               ? std::string("no time step: the scene has no possible contact to derive one from; set dt")
+               : "no time step: the default dt (contact duration / 50) is " + fmt(dt_) +
+                     " s for this scene (an overdamped restitution near 0, or stiffnesses, masses or "
+                     "impact_speed beyond what doubles resolve, leave no finite contact duration); set dt";
+  });
   const double crit = critical_time_step();
   if (dt_ > crit && !opt_.allow_unstable_dt)
     throw InvalidArgument("dt = " + fmt(dt_) + " s exceeds the stability bound " + fmt(crit) +

@@ -37,8 +37,8 @@ class Simulation:
         the shortest contact duration of the scene, evaluated when a run starts. A dt above
         ``critical_time_step()`` (2.31) is refused unless ``allow_unstable_dt`` is True.
     threads : int or None
-        OpenMP threads. None: OpenMP's default (all cores). Results are bit-identical for any
-        count.
+        OpenMP threads, 1 to 4096. None: OpenMP's default (all cores). Results are
+        bit-identical for any count.
     parallel_min : int
         Scenes with fewer spheres than this run on one thread, whatever ``threads`` says: there
         a parallel region costs more than it saves (and on a machine whose cores are busy with
@@ -95,10 +95,8 @@ class Simulation:
         self.gravity = gravity
         self.dt = dt
         self.threads = threads
-        self._core.parallel_min = _checks.whole("parallel_min", parallel_min)
-        self._core.seed = _checks.whole("seed", seed)
-        if seed >= 2**64:
-            raise ValueError(f"seed must be < 2**64, got {seed!r}")
+        self._core.parallel_min = _checks.whole("parallel_min", parallel_min, maximum=2**31 - 1)
+        self._core.seed = _checks.whole("seed", seed, maximum=2**64 - 1)
         if skin is not None:
             self._core.skin_option = _checks.positive("skin", skin)
         _checks.choice("tangential_history", tangential_history, _core.choices["tangential_history"])
@@ -153,7 +151,8 @@ class Simulation:
 
     @threads.setter
     def threads(self, value) -> None:
-        self._core.threads = 0 if value is None else _checks.whole("threads", value, minimum=1)
+        self._core.threads = 0 if value is None else _checks.whole("threads", value, minimum=1,
+                                                                  maximum=MAX_THREADS)
 
     @property
     def parallel_min(self) -> int:
@@ -228,7 +227,9 @@ class Simulation:
     def reserve(self, count: int) -> None:
         """Make room for ``count`` spheres in all (an integer >= 0) before adding them in
         batches: the engine's particle arrays then grow once, which keeps peak memory down."""
-        self._core.reserve(_checks.whole("count", count))
+        count = _checks.whole("count", count)
+        _checks.fits_in_memory("count", count)
+        self._core.reserve(count)
 
     def add_spheres(self, positions, radius, material: Material, velocities=None,
                     angular_velocities=None) -> np.ndarray:
@@ -237,10 +238,20 @@ class Simulation:
         positions : (N, 3) [m]; radius : float or (N,) [m], > 0; material : Material;
         velocities : (N, 3) [m/s] or None (zero); angular_velocities : (N, 3) [rad/s] or None.
         Mass is density 4/3 pi r^3 and the moment of inertia 2/5 m r^2 (1.3).
+
+        The arrays are copied (later changes to them do not reach the simulation). Raises
+        TypeError for non-numbers (booleans, complex numbers and strings too), ValueError for
+        wrong shapes, non-finite values and radii whose mass or moment of inertia (or their
+        inverses) overflow or vanish for the material's density, MemoryError, before anything is
+        allocated, for more spheres than the available memory holds (about 400 bytes each).
         """
         x = _checks.points("positions", positions)
         n = x.shape[0]
+        _checks.fits_in_memory("positions", self.size + n)
         r = _checks.radii("radius", radius, n)
+        if not isinstance(material, Material):
+            raise TypeError(f"material must be a tsubu.Material, got {material!r}")
+        _check_mass(r, material)
         mat = self._material(material, scene=True)
         v = None if velocities is None else _checks.points("velocities", velocities, n)
         w = None if angular_velocities is None else _checks.points("angular_velocities", angular_velocities, n)
@@ -279,19 +290,21 @@ class Simulation:
                 raise TypeError(f"coefficients must be 4 numbers (a, b, c, d), got {coefficients!r}") from None
             if c.shape != (4,) or not np.all(np.isfinite(c)):
                 raise ValueError(f"coefficients must be 4 finite numbers (a, b, c, d), got {coefficients!r}")
-            nrm2 = float(c[:3] @ c[:3])
-            if nrm2 == 0:
+            scale = float(np.max(np.abs(c[:3])))
+            if scale == 0:
                 raise ValueError(f"coefficients (a, b, c) must not all be zero, got {coefficients!r}")
+            c = c / scale  # (a, b, c) of order 1: |n|^2 neither overflows nor underflows
             normal = c[:3]
-            point = -c[3] * c[:3] / nrm2
+            with np.errstate(over="ignore"):
+                point = -c[3] * c[:3] / float(c[:3] @ c[:3])
+            if not np.all(np.isfinite(point)):
+                raise ValueError(f"coefficients put the plane beyond the range of floats: {coefficients!r}")
         if point is None:
             point = (0.0, 0.0, 0.0)
         if normal is None:
             normal = (0.0, 0.0, 1.0)
         p = _checks.vec3("point", point)
-        nrm = _checks.vec3("normal", normal)
-        if math.hypot(*nrm) == 0:
-            raise ValueError(f"normal must not be zero, got {normal!r}")
+        nrm = _unit("normal", normal)
         return self._core.add_plane(p, nrm, self._material(material, scene=True), _checks.vec3("velocity", velocity),
                                     _checks.vec3("angular_velocity", angular_velocity))
 
@@ -306,7 +319,8 @@ class Simulation:
         """A wall's current point, unit normal, velocity and angular velocity."""
         wall = _checks.whole("wall", wall)
         if wall >= self._core.plane_count:
-            raise ValueError(f"wall must be < {self._core.plane_count}, got {wall}")
+            raise ValueError(f"wall {wall} does not exist: the simulation has {self._core.plane_count} "
+                             f"walls (wall must be < {self._core.plane_count})")
         d = self._core.plane(wall)
         return {k: (np.array(v) if k != "material" else self._materials_by_index(v)) for k, v in d.items()}
 
@@ -366,7 +380,7 @@ class Simulation:
             raise TypeError("run needs exactly one of steps= or time=")
         if time is not None:
             t = _checks.positive("time", time, allow_zero=True)
-            steps = int(round(t / self.dt))
+            steps = _steps_for(t, self.dt)
         steps = _checks.whole("steps", steps)
         if not progress:
             self._advance(steps)
@@ -530,6 +544,47 @@ class Simulation:
     def __repr__(self) -> str:
         return (f"tsubu.Simulation({self.size} spheres, {self._core.plane_count} walls, "
                 f"t = {self.time:.6g} s, step {self.step_count})")
+
+
+# Far more than any machine's cores: OpenMP would try to start every thread asked for.
+MAX_THREADS = 4096
+
+
+def _steps_for(duration: float, dt: float) -> int:
+    """The whole number of steps of ``dt`` nearest to ``duration`` (ValueError when that is not a
+    finite count)."""
+    count = duration / dt if math.isfinite(dt) else math.inf
+    if not count <= 2**62:
+        raise ValueError(f"time={duration!r} s is {count:g} steps of dt = {dt!r} s: more than 2**62 "
+                         "steps (or dt is not finite: set dt)")
+    return int(round(count))
+
+
+def _unit(name: str, value) -> tuple[float, float, float]:
+    """A finite nonzero 3-vector, scaled to unit length without overflow or underflow."""
+    v = np.array(_checks.vec3(name, value))
+    scale = float(np.max(np.abs(v)))
+    if scale == 0:
+        raise ValueError(f"{name} must not be zero, got {value!r}")
+    v = v / scale
+    v = v / math.sqrt(float(v @ v))
+    return (float(v[0]), float(v[1]), float(v[2]))
+
+
+def _check_mass(radius: np.ndarray, material: Material) -> None:
+    """The mass and moment of inertia of every sphere, and their inverses, must be finite and > 0
+    in doubles (a radius of 1e-120 m or 1e120 m is not)."""
+    with np.errstate(over="ignore", under="ignore", divide="ignore"):
+        mass = material.density * 4.0 / 3.0 * math.pi * radius ** 3
+        inertia = 0.4 * mass * radius * radius
+        ok = (np.isfinite(mass) & (mass > 0) & np.isfinite(1.0 / mass) & np.isfinite(inertia)
+              & (inertia > 0) & np.isfinite(1.0 / inertia))
+    if not ok.all():
+        k = int(np.argmin(ok))
+        raise ValueError(
+            f"radius: entry {k} ({radius[k]!r} m) with density {material.density!r} kg/m^3 gives a "
+            f"mass of {mass[k]!r} kg and a moment of inertia of {inertia[k]!r} kg m^2; both and "
+            "their inverses must be finite and > 0 in double precision")
 
 
 def _label(material: Material) -> str:
