@@ -293,9 +293,9 @@ class Simulation:
             scale = float(np.max(np.abs(c[:3])))
             if scale == 0:
                 raise ValueError(f"coefficients (a, b, c) must not all be zero, got {coefficients!r}")
-            c = c / scale  # (a, b, c) of order 1: |n|^2 neither overflows nor underflows
-            normal = c[:3]
-            with np.errstate(over="ignore"):
+            with np.errstate(all="ignore"):
+                c = c / scale  # (a, b, c) of order 1: |n|^2 neither overflows nor underflows
+                normal = c[:3]
                 point = -c[3] * c[:3] / float(c[:3] @ c[:3])
             if not np.all(np.isfinite(point)):
                 raise ValueError(f"coefficients put the plane beyond the range of floats: {coefficients!r}")
@@ -582,8 +582,9 @@ def _check_mass(radius: np.ndarray, material: Material) -> None:
     if not ok.all():
         k = int(np.argmin(ok))
         raise ValueError(
-            f"radius: entry {k} ({radius[k]!r} m) with density {material.density!r} kg/m^3 gives a "
-            f"mass of {mass[k]!r} kg and a moment of inertia of {inertia[k]!r} kg m^2; both and "
+            f"radius: entry {k} ({float(radius[k])!r} m) with density {material.density!r} kg/m^3 "
+            f"gives a mass of {float(mass[k])!r} kg and a moment of inertia of {float(inertia[k])!r} "
+            "kg m^2; both and "
             "their inverses must be finite and > 0 in double precision")
 
 
