@@ -23,41 +23,52 @@ import time
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 
 
+def _tests(selection: str | None) -> list[str]:
+    cmd = [sys.executable, "-m", "pytest", "tests/test_fuzz.py", "--collect-only", "-q",
+           "-p", "no:cacheprovider"] + (["-k", selection] if selection else [])
+    out = subprocess.run(cmd, cwd=ROOT, capture_output=True, text=True).stdout
+    return [line.strip() for line in out.splitlines() if "::" in line]
+
+
+def _statistics(output: str) -> tuple[int, int]:
+    """(cases, failing) from hypothesis's "- N passing examples, M failing examples" lines."""
+    cases = failing = 0
+    for line in output.splitlines():
+        words = line.strip().lstrip("- ").replace(",", "").split()
+        if len(words) >= 6 and words[1:3] == ["passing", "examples"]:
+            cases += int(words[0]) + int(words[3])
+            failing += int(words[3])
+    return cases, failing
+
+
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--examples", type=int, default=2000, help="examples per test (default 2000)")
     parser.add_argument("-k", default=None, help="pytest -k expression selecting tests")
     args = parser.parse_args()
     env = dict(os.environ, TSUBU_FUZZ_PROFILE="campaign", TSUBU_FUZZ_EXAMPLES=str(args.examples))
-    cmd = [sys.executable, "-m", "pytest", os.path.join(ROOT, "tests", "test_fuzz.py"), "-q",
-           "-p", "no:cacheprovider", "--hypothesis-show-statistics"]
-    if args.k:
-        cmd += ["-k", args.k]
+    total_cases = total_failing = 0
+    failed_tests = []
     start = time.perf_counter()
-    proc = subprocess.run(cmd, env=env, cwd=ROOT, capture_output=True, text=True)
-    seconds = time.perf_counter() - start
-    out = proc.stdout + proc.stderr
-    # hypothesis's statistics: "- N passing examples, M failing examples, K invalid examples"
-    cases = failures = 0
-    test = None
-    rows = []
-    for line in out.splitlines():
-        s = line.strip()
-        if s.startswith("tests/test_fuzz.py::") or s.startswith("test_fuzz.py::"):
-            test = s.split("::", 1)[1].rstrip(":")
-        elif "passing examples" in s and test:
-            words = s.lstrip("- ").replace(",", "").split()
-            passing, failing = int(words[0]), int(words[3])
-            cases += passing + failing
-            failures += failing
-            rows.append((test, passing, failing))
-    for name, passing, failing in rows:
-        print(f"{name:45s} {passing + failing:8d} cases {failing:4d} failing")
-    print(f"{'all':45s} {cases:8d} cases {failures:4d} failing  in {seconds:.0f} s "
-          f"(pytest exit {proc.returncode})")
-    if proc.returncode != 0:
-        print(out[-6000:])
-    return proc.returncode
+    for test in _tests(args.k):
+        t0 = time.perf_counter()
+        proc = subprocess.run([sys.executable, "-m", "pytest", test, "-q", "-p", "no:cacheprovider",
+                               "--hypothesis-show-statistics"], env=env, cwd=ROOT,
+                              capture_output=True, text=True)
+        out = proc.stdout + proc.stderr
+        cases, failing = _statistics(out)
+        if proc.returncode != 0:
+            failing = max(failing, 1)  # hypothesis stops at the first (shrunk) failure
+            failed_tests.append((test, out))
+        total_cases += cases
+        total_failing += failing
+        print(f"{test.split('::')[1]:40s} {cases:7d} cases {failing:3d} failing "
+              f"{time.perf_counter() - t0:7.1f} s", flush=True)
+    print(f"{'all':40s} {total_cases:7d} cases {total_failing:3d} failing "
+          f"{time.perf_counter() - start:7.1f} s", flush=True)
+    for test, out in failed_tests:
+        print(f"\n==== {test}\n{out[-4000:]}")
+    return 1 if failed_tests else 0
 
 
 if __name__ == "__main__":

@@ -128,7 +128,10 @@ class Simulation:
 
     @gravity.setter
     def gravity(self, value) -> None:
-        self._core.gravity = _checks.vec3("gravity", value)
+        g = _checks.vec3("gravity", value)
+        if self.size:
+            _energies_fit("gravity", self.masses, self.radii, x=self.positions, g=g)
+        self._core.gravity = g
 
     @property
     def dt(self) -> float:
@@ -251,10 +254,13 @@ class Simulation:
         r = _checks.radii("radius", radius, n)
         if not isinstance(material, Material):
             raise TypeError(f"material must be a tsubu.Material, got {material!r}")
-        _check_mass(r, material)
+        mass = _check_mass(r, material)
         mat = self._material(material, scene=True)
         v = None if velocities is None else _checks.points("velocities", velocities, n)
         w = None if angular_velocities is None else _checks.points("angular_velocities", angular_velocities, n)
+        _energies_fit("positions", mass, r, x=x, g=self.gravity)
+        _energies_fit("velocities", mass, r, v=v)
+        _energies_fit("angular_velocities", mass, r, w=w)
         first = self._core.add_spheres(x, r, np.full(n, mat, dtype=np.intc), v, w)
         return np.arange(first, first + n, dtype=np.int64)
 
@@ -431,7 +437,9 @@ class Simulation:
 
     @positions.setter
     def positions(self, value) -> None:
-        self._core.set_positions(_checks.points("positions", value, self.size))
+        x = _checks.points("positions", value, self.size)
+        _energies_fit("positions", self.masses, self.radii, x=x, g=self.gravity)
+        self._core.set_positions(x)
 
     @property
     def velocities(self) -> np.ndarray:
@@ -440,7 +448,9 @@ class Simulation:
 
     @velocities.setter
     def velocities(self, value) -> None:
-        self._core.set_velocities(_checks.points("velocities", value, self.size))
+        v = _checks.points("velocities", value, self.size)
+        _energies_fit("velocities", self.masses, self.radii, v=v)
+        self._core.set_velocities(v)
 
     @property
     def angular_velocities(self) -> np.ndarray:
@@ -449,7 +459,9 @@ class Simulation:
 
     @angular_velocities.setter
     def angular_velocities(self, value) -> None:
-        self._core.set_angular_velocities(_checks.points("angular_velocities", value, self.size))
+        w = _checks.points("angular_velocities", value, self.size)
+        _energies_fit("angular_velocities", self.masses, self.radii, w=w)
+        self._core.set_angular_velocities(w)
 
     @property
     def radii(self) -> np.ndarray:
@@ -496,8 +508,19 @@ class Simulation:
         symplectic Euler's modified energy, exactly conserved for linear springs however close
         dt is to the bound; with ``dissipated`` it is the balance that tsubu's own instability
         check uses (docs/physics.md). Without at_positions, ``step_correction`` is 0.
+
+        Raises ValueError if a part is not finite: input whose energy would overflow is refused
+        (a sphere's kinetic, rotational or gravitational energy above 1e300 J), so only a run
+        that drove the state there (an enormous gravity, say) can get there.
         """
-        return self._core.energy(bool(at_positions))
+        if not isinstance(at_positions, (bool, np.bool_)):
+            raise TypeError(f"at_positions must be a bool, got {at_positions!r}")
+        energies = self._core.energy(bool(at_positions))
+        if not all(math.isfinite(e) for e in energies.values()):
+            raise ValueError("energy: the state's energies overflow doubles (" + ", ".join(
+                f"{k} {e!r} J" for k, e in energies.items() if not math.isfinite(e)) + "): a run "
+                "drove speeds or positions beyond what doubles resolve")
+        return energies
 
     # ---- neighbour list ----------------------------------------------------------------------
     def rebuild_neighbors(self) -> None:
@@ -571,7 +594,31 @@ def _unit(name: str, value) -> tuple[float, float, float]:
     return (float(v[0]), float(v[1]), float(v[2]))
 
 
-def _check_mass(radius: np.ndarray, material: Material) -> None:
+# The largest energy [J] one sphere may have (kinetic, rotational or gravitational): sums over
+# many spheres, and products in the energy balance, stay inside the range of doubles.
+MAX_SPHERE_ENERGY = 1e300
+
+
+def _energies_fit(name: str, mass, radius, *, x=None, v=None, w=None, g=None) -> None:
+    """ValueError naming ``name`` when a sphere's kinetic, rotational or gravitational energy
+    would exceed MAX_SPHERE_ENERGY (or overflow)."""
+    with np.errstate(all="ignore"):
+        if v is not None:
+            e, what = 0.5 * mass * np.einsum("ij,ij->i", v, v), "kinetic"
+        elif w is not None:
+            e, what = 0.2 * mass * radius * radius * np.einsum("ij,ij->i", w, w), "rotational"
+        elif x is not None and g is not None:
+            e, what = mass * np.abs(np.asarray(x) @ np.asarray(g)), "gravitational"
+        else:
+            return
+        bad = ~(e <= MAX_SPHERE_ENERGY)
+    if bad.any():
+        k = int(np.argmax(bad))
+        raise ValueError(f"{name}: sphere {k} would have a {what} energy of {float(e[k]):g} J, beyond "
+                         f"{MAX_SPHERE_ENERGY:g} J (sums of such energies overflow doubles)")
+
+
+def _check_mass(radius: np.ndarray, material: Material) -> np.ndarray:
     """The mass and moment of inertia of every sphere, and their inverses, must be finite and > 0
     in doubles (a radius of 1e-120 m or 1e120 m is not)."""
     with np.errstate(over="ignore", under="ignore", divide="ignore"):
@@ -586,6 +633,7 @@ def _check_mass(radius: np.ndarray, material: Material) -> None:
             f"gives a mass of {float(mass[k])!r} kg and a moment of inertia of {float(inertia[k])!r} "
             "kg m^2; both and "
             "their inverses must be finite and > 0 in double precision")
+    return mass
 
 
 def _label(material: Material) -> str:
