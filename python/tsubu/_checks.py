@@ -124,9 +124,7 @@ def radii(name: str, value, n: int) -> np.ndarray:
 
 def choice(name: str, value, options) -> str:
     """One of the names in ``options`` (for the string-valued arguments, ``_core.choices``)."""
-    if not isinstance(value, str):
-        raise TypeError(f"{name} must be a string, one of {list(options)}, got {value!r}")
-    if value not in options:
+    if not isinstance(value, str) or value not in options:  # (an array would compare elementwise)
         names = [f"'{o}'" for o in options]
         listing = ", ".join(names[:-1]) + " or " + names[-1] if len(names) > 1 else names[0]
         raise ValueError(f"{name} must be {listing}, got {value!r}")
