@@ -31,13 +31,14 @@ def _tests(selection: str | None) -> list[str]:
 
 
 def _statistics(output: str) -> tuple[int, int]:
-    """(cases, failing) from hypothesis's "- N passing examples, M failing examples" lines."""
+    """(cases, failing) from hypothesis's statistics: "- 50 passing, 0 failing, and 3 invalid
+    test cases" (per phase: generate, shrink, ...)."""
     cases = failing = 0
     for line in output.splitlines():
         words = line.strip().lstrip("- ").replace(",", "").split()
-        if len(words) >= 6 and words[1:3] == ["passing", "examples"]:
-            cases += int(words[0]) + int(words[3])
-            failing += int(words[3])
+        if len(words) >= 4 and words[1] == "passing" and words[3] == "failing":
+            cases += int(words[0]) + int(words[2])
+            failing += int(words[2])
     return cases, failing
 
 
