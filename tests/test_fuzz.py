@@ -104,23 +104,32 @@ def names_argument(error: BaseException, names) -> bool:
     return any(re.search(rf"\b{re.escape(n)}\b", text) for n in names)
 
 
+_LAST_ERROR: list = [None]
+
+
 def attempt(call, *names):
     """``call()``; an accepted error must name one of ``names`` (then None is returned)."""
+    _LAST_ERROR[0] = None
     try:
         return call()
     except ACCEPTED as e:
         assert names_argument(e, names), f"{type(e).__name__} names none of {names}: {e}"
+        _LAST_ERROR[0] = e
         return None
 
 
 def check_consistent(sim: tsubu.Simulation) -> None:
-    """Every array finite and of the shape the size says, counters and contacts coherent."""
+    """Every array finite and of the shape the size says, counters and contacts coherent. Right
+    after an InstabilityError the forces, torques and contacts are those of the evaluation that
+    failed (what the error reports: they may be non-finite); the state itself must be finite."""
+    unstable = isinstance(_LAST_ERROR[0], tsubu.InstabilityError)
     n = sim.size
     assert len(sim) == n >= 0
     for name in ("positions", "velocities", "angular_velocities", "forces", "torques"):
         a = getattr(sim, name)
         assert a.shape == (n, 3) and a.dtype == np.float64, name
-        assert np.isfinite(a).all(), f"{name} not finite: {a}"
+        assert (unstable and name in ("forces", "torques")) or np.isfinite(a).all(), \
+            f"{name} not finite: {a}"
     for name in ("radii", "masses"):
         a = getattr(sim, name)
         assert a.shape == (n,) and np.isfinite(a).all() and (a > 0).all(), name
@@ -133,11 +142,11 @@ def check_consistent(sim: tsubu.Simulation) -> None:
     for key, width in (("j", 0), ("wall", 0), ("overlap", 0), ("force", 3), ("torque_i", 3),
                        ("tangential_displacement", 3)):
         assert c[key].shape == ((m, width) if width else (m,)), key
-        assert np.isfinite(c[key]).all(), key
+        assert unstable or np.isfinite(c[key]).all(), key
     assert ((0 <= c["i"]) & (c["i"] < n)).all()
     assert ((-1 <= c["j"]) & (c["j"] < n)).all() and ((-1 <= c["wall"]) & (c["wall"] < walls)).all()
     assert ((c["j"] == -1) == (c["wall"] >= 0)).all()
-    assert (c["overlap"] > 0).all()
+    assert unstable or (c["overlap"] > 0).all()
     assert (np.diff(c["i"]) >= 0).all()
     pairs = sim.neighbor_pairs()
     assert pairs.ndim == 2 and pairs.shape[1] == 2
@@ -247,6 +256,11 @@ def sphere_batches(draw):
     return positions, radius, velocities, spins
 
 
+def same_bits(a: np.ndarray, b: np.ndarray) -> bool:
+    """Equal dtype, shape and bytes (NaN equals itself; object arrays: the same objects)."""
+    return a.dtype == b.dtype and a.shape == b.shape and a.tobytes() == b.tobytes()
+
+
 def _snapshot(value):
     return None if value is None else (np.array(value, dtype=object, copy=True)
                                        if not isinstance(value, np.ndarray) else value.copy())
@@ -267,7 +281,7 @@ def test_add_spheres(batch, keywords, steps):
     ids = attempt(call, "positions", "radius", "velocities", "angular_velocities")
     for old, new in zip(before, batch):  # the caller's arrays are never changed
         if isinstance(new, np.ndarray):
-            np.testing.assert_array_equal(old, new)
+            assert same_bits(old, new)
     if ids is None:
         assert sim.size == 0  # a refused batch adds nothing
         return
@@ -375,7 +389,7 @@ def test_setters_between_runs(ops):
             snap = _snapshot(value)
             done = attempt(lambda: setattr(sim, name, value) or True, name)
             if isinstance(value, np.ndarray):
-                np.testing.assert_array_equal(snap, value)
+                assert same_bits(snap, value)
             if done is None:  # refused: nothing changed
                 for old, new in zip(before, (sim.positions, sim.velocities, sim.angular_velocities)):
                     np.testing.assert_array_equal(old, new)

@@ -94,8 +94,10 @@ void Simulation::bin_by_cell(const CellGrid& g) {
   if (!g.sparse) {  // counting sort over every cell of the box
     const long ncell = g.dims[0] * g.dims[1] * g.dims[2];
     for (std::size_t k = 0; k < n; ++k) {
-      const CellKey c = cell_of(g, &particles_.x[3 * k]);
-      cell_of_[k] = static_cast<Index>((c[0] * g.dims[1] + c[1]) * g.dims[0] + c[2]);
+      long c[3];
+      for (int d = 0; d < 3; ++d)
+        c[d] = std::clamp(static_cast<long>((particles_.x[3 * k + d] - g.lo[d]) / g.h), 0L, g.dims[d] - 1);
+      cell_of_[k] = static_cast<Index>((c[2] * g.dims[1] + c[1]) * g.dims[0] + c[0]);
     }
     cell_start_.assign(ncell + 1, 0);
     for (std::size_t k = 0; k < n; ++k) ++cell_start_[cell_of_[k] + 1];
@@ -172,10 +174,14 @@ void Simulation::check_list_fits(const CellGrid& g, double skin) const {
   const double limit = std::min<double>(std::numeric_limits<Index>::max(), memory / per_pair);
   const double nd = static_cast<double>(n);
   if (0.5 * nd * (nd - 1) <= limit) return;  // even every pair fits
-  // An upper bound from the cells: each particle meets at most the particles of its 27 cells.
+  // Upper bounds from the cells: each particle meets at most the particles of its 27 cells, so
+  // at most 27 times the fullest cell's count (cheap), or (when that is over) their sum.
   auto occupancy = [&](long c) { return static_cast<double>(cell_start_[c + 1] - cell_start_[c]); };
-  double around_sum = 0;
   const long cells = static_cast<long>(cell_start_.size()) - 1;
+  double fullest = 0;
+  for (long c = 0; c < cells; ++c) fullest = std::max(fullest, occupancy(c));
+  if (0.5 * nd * 27.0 * fullest <= limit) return;
+  double around_sum = 0;
   for (long c = 0; c < cells; ++c) {
     const double own = occupancy(c);
     if (own == 0) continue;
@@ -284,15 +290,29 @@ void Simulation::rebuild(bool keep_history) {
   pair_offset_.assign(n + 1, 0);
   const double* x = particles_.x.data();
   const double* r = particles_.radius.data();
+  const Vec3& lo_cell = grid.lo;
+  const double h = grid.h;
+  const std::array<long, 3>& dims = grid.dims;
   auto for_each_neighbor = [&](Index i, auto&& visit) {
     const Vec3 xi = vec3(x, i);
-    for_each_cell_around(grid, cell_key_, cell_of(grid, &x[3 * i]), [&](long cell) {
+    auto visit_cell = [&](long cell) {
       for (Index j = cell_start_[cell]; j < cell_start_[cell + 1]; ++j) {
         if (particles_.id[j] <= particles_.id[i]) continue;
         const double cut = r[i] + r[j] + skin;
         if (box_.displacement(xi, vec3(x, j)).squaredNorm() < cut * cut) visit(j);
       }
-    });
+    };
+    if (grid.sparse) {
+      for_each_cell_around(grid, cell_key_, cell_of(grid, &x[3 * i]), visit_cell);
+      return;
+    }
+    long c[3];  // the dense grid, indexed directly (the common case: kept tight)
+    for (int d = 0; d < 3; ++d)
+      c[d] = std::clamp(static_cast<long>((xi[d] - lo_cell[d]) / h), 0L, dims[d] - 1);
+    for (long cz = std::max(c[2] - 1, 0L); cz <= std::min(c[2] + 1, dims[2] - 1); ++cz)
+      for (long cy = std::max(c[1] - 1, 0L); cy <= std::min(c[1] + 1, dims[1] - 1); ++cy)
+        for (long cx = std::max(c[0] - 1, 0L); cx <= std::min(c[0] + 1, dims[0] - 1); ++cx)
+          visit_cell((cz * dims[1] + cy) * dims[0] + cx);
   };
   const Index ni = static_cast<Index>(n);
 #pragma omp parallel for schedule(static) num_threads(threads()) if (ni >= opt_.parallel_min)
