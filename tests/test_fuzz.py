@@ -28,7 +28,7 @@ from hypothesis import strategies as st  # noqa: E402
 import tsubu  # noqa: E402
 
 _QUIET = [HealthCheck.too_slow, HealthCheck.data_too_large, HealthCheck.filter_too_much]
-settings.register_profile("ci", max_examples=60, deadline=None, derandomize=True, database=None,
+settings.register_profile("ci", max_examples=100, deadline=None, derandomize=True, database=None,
                           suppress_health_check=_QUIET, print_blob=True)
 settings.register_profile("campaign", max_examples=int(os.environ.get("TSUBU_FUZZ_EXAMPLES", "2000")),
                           deadline=None, derandomize=False, database=None,
