@@ -774,9 +774,9 @@ std::vector<std::pair<std::string, std::size_t>> Simulation::memory_bytes() cons
                         pair_state_.bytes()},
       {"walls", bytes(wall_offset_, wall_index_, wall_owner_, wall_near_offset_, wall_near_) +
                     wall_state_.bytes()},
-      {"scratch", bytes(cell_start_, cell_of_, perm_, old_index_of_, active_, old_near_offset_,
-                        old_wall_offset_, old_wall_index_, old_near_partner_id_, scratch_,
-                        scratch_int_) +
+      {"scratch", bytes(cell_start_, cell_of_, cell_key_, perm_, old_index_of_, active_,
+                        old_near_offset_, old_wall_offset_, old_wall_index_, old_near_partner_id_,
+                        scratch_, scratch_int_) +
                       old_state},
   };
 }
