@@ -212,7 +212,7 @@ void Simulation::check_list_fits(const CellGrid& g, double skin) const {
   const bool by_index = std::numeric_limits<Index>::max() < memory / per_pair;
   throw ResourceError(
       "the neighbour list of " + std::to_string(n) + " spheres would hold over " +
-      std::to_string(static_cast<long long>(limit)) + " pairs (~" + gib(count * per_pair) + "), " +
+      std::to_string(static_cast<long long>(limit)) + " pairs (over " + gib(count * per_pair) + "), " +
       (by_index ? std::string("beyond the 2^31 - 1 entries its 32-bit indices hold")
                 : "beyond the " + gib(memory) + " of memory available") +
       ": the pair cutoff r_i + r_j + skin (largest radius " + std::to_string(rmax) + " m, skin " +
