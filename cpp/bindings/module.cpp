@@ -22,6 +22,8 @@ PYBIND11_MODULE(_core, m) {
       PyErr_SetObject(instability.ptr(), args.ptr());
     } catch (const tsubu::InvalidArgument& e) {
       PyErr_SetString(PyExc_ValueError, e.what());
+    } catch (const tsubu::ResourceError& e) {
+      PyErr_SetString(PyExc_MemoryError, e.what());
     }
   });
 
@@ -33,6 +35,8 @@ PYBIND11_MODULE(_core, m) {
   choices[Choices<tsubu::SlipRule>::argument] = names<tsubu::SlipRule>();
   m.attr("choices") = choices;
   m.attr("compiled_law_count") = tsubu::compiled_law_count();
+  m.def("available_memory", &tsubu::available_memory,
+        "Bytes the process can still allocate (MemAvailable, capped by the cgroup's limit).");
 
   register_materials(m);
   py::class_<tsubu::Simulation> sim(m, "Simulation");

@@ -1,11 +1,18 @@
 #include "tsubu/memory.hpp"
 
+#include <algorithm>
 #include <atomic>
 #include <cstdint>
 #include <cstdlib>
+#include <fstream>
+#include <limits>
+#include <string>
 
 #if defined(__linux__)
 #include <sys/mman.h>
+#endif
+#if defined(__unix__) || defined(__APPLE__)
+#include <unistd.h>
 #endif
 
 namespace tsubu::detail {
@@ -56,3 +63,39 @@ void unmap_large(void* p, std::size_t) { std::free(p); }
 #endif
 
 }  // namespace tsubu::detail
+
+namespace tsubu {
+
+namespace {
+// The first number in a file (0 when absent or not a number, e.g. cgroup's "max").
+std::size_t read_number(const char* path, const std::string& key = "") {
+  std::ifstream in(path);
+  std::string word;
+  while (in >> word) {
+    if (!key.empty() && word != key) continue;
+    if (!key.empty() && !(in >> word)) return 0;
+    try {
+      return static_cast<std::size_t>(std::stoull(word));
+    } catch (...) {
+      return 0;
+    }
+  }
+  return 0;
+}
+}  // namespace
+
+std::size_t available_memory() {
+  std::size_t bytes = std::numeric_limits<std::size_t>::max();
+#if defined(__linux__)
+  if (const std::size_t kib = read_number("/proc/meminfo", "MemAvailable:")) bytes = kib * 1024;
+  const std::size_t limit = read_number("/sys/fs/cgroup/memory.max");  // cgroup v2
+  const std::size_t used = read_number("/sys/fs/cgroup/memory.current");
+  if (limit > 0) bytes = std::min(bytes, limit > used ? limit - used : 0);
+#elif defined(_SC_PHYS_PAGES)
+  const long pages = sysconf(_SC_PHYS_PAGES), page = sysconf(_SC_PAGE_SIZE);
+  if (pages > 0 && page > 0) bytes = static_cast<std::size_t>(pages) * static_cast<std::size_t>(page);
+#endif
+  return bytes;
+}
+
+}  // namespace tsubu

@@ -2,7 +2,10 @@
 // particles by cell, and the transfer of contact history across rebuilds.
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <limits>
+#include <string>
+#include <vector>
 
 #include "tsubu/simulation.hpp"
 
@@ -49,25 +52,175 @@ void Simulation::rebuild_neighbors() {
   rebuild(true);
 }
 
-void Simulation::sort_by_cell(double h, const Vec3& lo, const std::array<long, 3>& dims) {
+Simulation::CellGrid Simulation::plan_grid(double skin) const {
+  CellGrid g;
   const std::size_t n = n_;
-  const long ncell = dims[0] * dims[1] * dims[2];
-  cell_of_.resize(n);
-  for (std::size_t k = 0; k < n; ++k) {
-    long c[3];
-    for (int d = 0; d < 3; ++d)
-      c[d] = std::clamp(static_cast<long>((particles_.x[3 * k + d] - lo[d]) / h), 0L, dims[d] - 1);
-    cell_of_[k] = static_cast<Index>((c[2] * dims[1] + c[1]) * dims[0] + c[0]);
+  if (n == 0) return g;
+  box_.grid_extent(particles_.x.data(), n, g.lo, g.hi);
+  const double rmax = *std::max_element(particles_.radius.begin(), particles_.radius.end());
+  g.h = 2.0 * rmax + skin;  // cells no smaller than the largest cutoff
+  const double max_cells = 2.0 * static_cast<double>(n) + 1000.0;
+  double total = 1;
+  for (int d = 0; d < 3; ++d) total *= std::floor((g.hi[d] - g.lo[d]) / g.h) + 1;
+  if (total <= max_cells) {  // (false for an extent that overflows, too)
+    for (int d = 0; d < 3; ++d) g.dims[d] = static_cast<long>(std::floor((g.hi[d] - g.lo[d]) / g.h)) + 1;
+    return g;
   }
-  cell_start_.assign(ncell + 1, 0);
-  for (std::size_t k = 0; k < n; ++k) ++cell_start_[cell_of_[k] + 1];
-  for (long c = 0; c < ncell; ++c) cell_start_[c + 1] += cell_start_[c];
+  // Sparse: keys are computed from halved coordinates (an extent may exceed the largest double)
+  // and must fit in a long: far-flung scenes get larger cells only beyond ~1e18 cells a side.
+  g.sparse = true;
+  const double max_coord = std::ldexp(1.0, std::min(60, std::numeric_limits<long>::digits - 2));
+  double half_extent = 0;
+  for (int d = 0; d < 3; ++d) half_extent = std::max(half_extent, 0.5 * g.hi[d] - 0.5 * g.lo[d]);
+  g.h = std::max(g.h, 2.0 * half_extent / max_coord);
+  for (int d = 0; d < 3; ++d)
+    g.dims[d] = static_cast<long>(std::floor((0.5 * g.hi[d] - 0.5 * g.lo[d]) / (0.5 * g.h))) + 1;
+  return g;
+}
+
+Simulation::CellKey Simulation::cell_of(const CellGrid& g, const double* x) const {
+  CellKey key;
+  for (int d = 0; d < 3; ++d) {
+    const double c = g.sparse ? (0.5 * x[d] - 0.5 * g.lo[d]) / (0.5 * g.h) : (x[d] - g.lo[d]) / g.h;
+    key[2 - d] = std::clamp(static_cast<long>(c), 0L, g.dims[d] - 1);
+  }
+  return key;
+}
+
+void Simulation::bin_by_cell(const CellGrid& g) {
+  const std::size_t n = n_;
+  cell_of_.resize(n);
   perm_.resize(n);
-  {
+  if (!g.sparse) {  // counting sort over every cell of the box
+    const long ncell = g.dims[0] * g.dims[1] * g.dims[2];
+    for (std::size_t k = 0; k < n; ++k) {
+      long c[3];
+      for (int d = 0; d < 3; ++d)
+        c[d] = std::clamp(static_cast<long>((particles_.x[3 * k + d] - g.lo[d]) / g.h), 0L, g.dims[d] - 1);
+      cell_of_[k] = static_cast<Index>((c[2] * g.dims[1] + c[1]) * g.dims[0] + c[0]);
+    }
+    cell_start_.assign(ncell + 1, 0);
+    for (std::size_t k = 0; k < n; ++k) ++cell_start_[cell_of_[k] + 1];
+    for (long c = 0; c < ncell; ++c) cell_start_[c + 1] += cell_start_[c];
     Array<Index>& fill = scratch_int_;
     fill.assign(cell_start_.begin(), cell_start_.end() - 1);
     for (std::size_t k = 0; k < n; ++k) perm_[fill[cell_of_[k]]++] = static_cast<Index>(k);
+    return;
   }
+  // Sparse: a stable sort by key gives the order the dense grid would (cells by (z, y, x),
+  // particles in a cell by index); cell_key_ lists the occupied cells.
+  std::vector<CellKey> key(n);
+  for (std::size_t k = 0; k < n; ++k) key[k] = cell_of(g, &particles_.x[3 * k]);
+  for (std::size_t k = 0; k < n; ++k) perm_[k] = static_cast<Index>(k);
+  std::stable_sort(perm_.begin(), perm_.end(), [&](Index a, Index b) { return key[a] < key[b]; });
+  cell_key_.clear();
+  cell_start_.clear();
+  for (std::size_t s = 0; s < n; ++s) {
+    const Index k = perm_[s];
+    if (cell_key_.empty() || key[k] != cell_key_.back()) {
+      cell_key_.push_back(key[k]);
+      cell_start_.push_back(static_cast<Index>(s));
+    }
+    cell_of_[k] = static_cast<Index>(cell_key_.size() - 1);
+  }
+  cell_start_.push_back(static_cast<Index>(n));
+}
+
+namespace {
+// Calls visit(cell) for each existing cell among the 27 around `key` (itself included), in the
+// order of increasing (z, y, x).
+template <class Grid, class Keys, class Visit>
+void for_each_cell_around(const Grid& g, const Keys& keys, const std::array<std::int64_t, 3>& key, Visit&& visit) {
+  const std::array<long, 3> dims{g.dims[2], g.dims[1], g.dims[0]};  // in key order (z, y, x)
+  std::array<std::int64_t, 3> lo_key, hi_key;
+  for (int d = 0; d < 3; ++d) {
+    lo_key[d] = std::max<std::int64_t>(key[d] - 1, 0);
+    hi_key[d] = std::min<std::int64_t>(key[d] + 1, dims[d] - 1);
+  }
+  for (std::int64_t cz = lo_key[0]; cz <= hi_key[0]; ++cz)
+    for (std::int64_t cy = lo_key[1]; cy <= hi_key[1]; ++cy)
+      for (std::int64_t cx = lo_key[2]; cx <= hi_key[2]; ++cx) {
+        if (!g.sparse) {
+          visit(static_cast<long>((cz * dims[1] + cy) * dims[2] + cx));
+          continue;
+        }
+        const std::array<std::int64_t, 3> q{cz, cy, cx};
+        const auto it = std::lower_bound(keys.begin(), keys.end(), q);
+        if (it != keys.end() && *it == q) visit(static_cast<long>(it - keys.begin()));
+      }
+}
+
+std::string gib(double bytes) {
+  char text[32];
+  std::snprintf(text, sizeof text, "%.3g GiB", bytes / (1024.0 * 1024.0 * 1024.0));
+  return text;
+}
+}  // namespace
+
+double Simulation::list_bytes_per_pair() const {
+  // A Verlet entry (its partner) and, at worst, a near entry: owner, partner, cutoff, reverse
+  // index, summation tag, touch flag, the law's cached terms and contact state (16 doubles when
+  // no run has chosen a law yet), with the lists' 1/8 growth room.
+  int doubles = law_ ? law_->entry_width : 0;
+  for (int w : EntryStore::widths(pair_shape_)) doubles += w;
+  if (!law_) doubles = std::max(doubles, 16);
+  return 1.125 * (4.0 + 25.0 + 8.0 * doubles);
+}
+
+void Simulation::check_list_fits(const CellGrid& g, double skin) const {
+  const std::size_t n = n_;
+  const double per_pair = list_bytes_per_pair();
+  const double memory = static_cast<double>(available_memory());
+  const double limit = std::min<double>(std::numeric_limits<Index>::max(), memory / per_pair);
+  const double nd = static_cast<double>(n);
+  if (0.5 * nd * (nd - 1) <= limit) return;  // even every pair fits
+  // Upper bounds from the cells: each particle meets at most the particles of its 27 cells, so
+  // at most 27 times the fullest cell's count (cheap), or (when that is over) their sum.
+  auto occupancy = [&](long c) { return static_cast<double>(cell_start_[c + 1] - cell_start_[c]); };
+  const long cells = static_cast<long>(cell_start_.size()) - 1;
+  double fullest = 0;
+  for (long c = 0; c < cells; ++c) fullest = std::max(fullest, occupancy(c));
+  if (0.5 * nd * 27.0 * fullest <= limit) return;
+  double around_sum = 0;
+  for (long c = 0; c < cells; ++c) {
+    const double own = occupancy(c);
+    if (own == 0) continue;
+    CellKey key = g.sparse ? cell_key_[c] : CellKey{c / (g.dims[0] * g.dims[1]), (c / g.dims[0]) % g.dims[1], c % g.dims[0]};
+    double around = 0;
+    for_each_cell_around(g, cell_key_, key, [&](long q) { around += occupancy(q); });
+    around_sum += own * around;
+  }
+  if (0.5 * (around_sum - nd) <= limit) return;
+  // The bound is over: count the pairs closer than their cutoff (particles not yet in cell
+  // order: perm_ lists each cell's), stopping as soon as the count is over too.
+  const double* x = particles_.x.data();
+  const double* r = particles_.radius.data();
+  double count = 0;
+  for (std::size_t k = 0; k < n && count <= limit; ++k) {
+    const Vec3 xk = vec3(x, k);
+    for_each_cell_around(g, cell_key_, cell_of(g, &x[3 * k]), [&](long c) {
+      for (Index s = cell_start_[c]; s < cell_start_[c + 1]; ++s) {
+        const Index j = perm_[s];
+        if (particles_.id[j] <= particles_.id[k]) continue;
+        const double cut = r[k] + r[j] + skin;
+        if (box_.displacement(xk, vec3(x, j)).squaredNorm() < cut * cut) ++count;
+      }
+    });
+  }
+  if (count <= limit) return;
+  const double rmax = *std::max_element(particles_.radius.begin(), particles_.radius.end());
+  const bool by_index = std::numeric_limits<Index>::max() < memory / per_pair;
+  throw ResourceError(
+      "the neighbour list of " + std::to_string(n) + " spheres would hold over " +
+      std::to_string(static_cast<long long>(limit)) + " pairs (over " + gib(count * per_pair) + "), " +
+      (by_index ? std::string("beyond the 2^31 - 1 entries its 32-bit indices hold")
+                : "beyond the " + gib(memory) + " of memory available") +
+      ": the pair cutoff r_i + r_j + skin (largest radius " + std::to_string(rmax) + " m, skin " +
+      std::to_string(skin) + " m) reaches too many spheres; use a smaller skin or smaller spheres");
+}
+
+void Simulation::sort_by_cell() {
+  const std::size_t n = n_;
   particles_.permute(perm_, scratch_);
   index_of_.resize(n);
   for (std::size_t k = 0; k < n; ++k) index_of_[particles_.id[k]] = static_cast<Index>(k);
@@ -107,9 +260,19 @@ void Simulation::stash_near() {
 void Simulation::rebuild(bool keep_history) {
   const std::size_t n = n_;
   const double skin = this->skin();
+
+  // 1. Cells: the bounding box of the particles, cells no smaller than the largest cutoff. The
+  //    particles are binned and the list's size checked before anything changes, so that a
+  //    list that cannot fit is refused with the state as it was.
+  const CellGrid grid = plan_grid(skin);
+  if (n > 0) {
+    bin_by_cell(grid);
+    check_list_fits(grid, skin);
+  }
   list_skin_ = skin;
 
-  // 1. Set the old near and wall lists aside, in terms of ids, with their state.
+  // 2. Set the old near and wall lists aside, in terms of ids, with their state; then put the
+  //    particles in cell order.
   const std::size_t old_n = near_offset_.size() == 0 ? 0 : near_offset_.size() - 1;
   const bool transfer = keep_history && old_n > 0 && wall_offset_.size() == old_n + 1;
   if (transfer) {
@@ -120,47 +283,36 @@ void Simulation::rebuild(bool keep_history) {
     const auto now = wall_state_.carried();
     for (std::size_t k = 0; k < kEntryArrays; ++k) old_wall_state_[k].swap(*now[k]);
   }
-
-  // 2. Cells: the bounding box of the particles, cells no smaller than the largest cutoff.
-  Vec3 lo = Vec3::Zero(), hi = Vec3::Zero();
-  std::array<long, 3> dims{1, 1, 1};
-  double h = 1;
-  if (n > 0) {
-    box_.grid_extent(particles_.x.data(), n, lo, hi);
-    const double rmax = *std::max_element(particles_.radius.begin(), particles_.radius.end());
-    h = 2.0 * rmax + skin;
-    const double max_cells = 2.0 * static_cast<double>(n) + 1000.0;
-    for (;;) {
-      double total = 1;
-      for (int d = 0; d < 3; ++d) {
-        dims[d] = static_cast<long>(std::floor((hi[d] - lo[d]) / h)) + 1;
-        total *= static_cast<double>(dims[d]);
-      }
-      if (total <= max_cells) break;
-      h *= 1.25;  // a sparse scene: fewer, larger cells keep memory O(N)
-    }
-    sort_by_cell(h, lo, dims);
-  }
+  if (n > 0) sort_by_cell();
+  const Vec3 lo = grid.lo, hi = grid.hi;
 
   // 3. Verlet half list, each pair owned by its lower id: count, prefix sum, fill, sort.
   pair_offset_.assign(n + 1, 0);
   const double* x = particles_.x.data();
   const double* r = particles_.radius.data();
+  const Vec3& lo_cell = grid.lo;
+  const double h = grid.h;
+  const std::array<long, 3>& dims = grid.dims;
   auto for_each_neighbor = [&](Index i, auto&& visit) {
     const Vec3 xi = vec3(x, i);
-    long c[3];
+    auto visit_cell = [&](long cell) {
+      for (Index j = cell_start_[cell]; j < cell_start_[cell + 1]; ++j) {
+        if (particles_.id[j] <= particles_.id[i]) continue;
+        const double cut = r[i] + r[j] + skin;
+        if (box_.displacement(xi, vec3(x, j)).squaredNorm() < cut * cut) visit(j);
+      }
+    };
+    if (grid.sparse) {
+      for_each_cell_around(grid, cell_key_, cell_of(grid, &x[3 * i]), visit_cell);
+      return;
+    }
+    long c[3];  // the dense grid, indexed directly (the common case: kept tight)
     for (int d = 0; d < 3; ++d)
-      c[d] = std::clamp(static_cast<long>((xi[d] - lo[d]) / h), 0L, dims[d] - 1);
+      c[d] = std::clamp(static_cast<long>((xi[d] - lo_cell[d]) / h), 0L, dims[d] - 1);
     for (long cz = std::max(c[2] - 1, 0L); cz <= std::min(c[2] + 1, dims[2] - 1); ++cz)
       for (long cy = std::max(c[1] - 1, 0L); cy <= std::min(c[1] + 1, dims[1] - 1); ++cy)
-        for (long cx = std::max(c[0] - 1, 0L); cx <= std::min(c[0] + 1, dims[0] - 1); ++cx) {
-          const long cell = (cz * dims[1] + cy) * dims[0] + cx;
-          for (Index j = cell_start_[cell]; j < cell_start_[cell + 1]; ++j) {
-            if (particles_.id[j] <= particles_.id[i]) continue;
-            const double cut = r[i] + r[j] + skin;
-            if (box_.displacement(xi, vec3(x, j)).squaredNorm() < cut * cut) visit(j);
-          }
-        }
+        for (long cx = std::max(c[0] - 1, 0L); cx <= std::min(c[0] + 1, dims[0] - 1); ++cx)
+          visit_cell((cz * dims[1] + cy) * dims[0] + cx);
   };
   const Index ni = static_cast<Index>(n);
 #pragma omp parallel for schedule(static) num_threads(threads()) if (ni >= opt_.parallel_min)

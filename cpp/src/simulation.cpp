@@ -403,8 +403,13 @@ void Simulation::prepare_run() {
   if (!(opt_.impact_speed > 0) && !(speed_fixed_ > 0)) speed_fixed_ = characteristic_speed();
   speed_ = characteristic_speed();
   dt_ = time_step();
-  require(std::isfinite(dt_) && dt_ > 0,
-          "no time step: the scene has no possible contact to derive one from; set dt");
+  require(std::isfinite(dt_) && dt_ > 0, [&] {
+    return n_ == 0 || materials_.empty()
+               ? std::string("no time step: the scene has no possible contact to derive one from; set dt")
+               : "no time step: the default dt (contact duration / 50) is " + fmt(dt_) +
+                     " s for this scene (an overdamped restitution near 0, or stiffnesses, masses or "
+                     "impact_speed beyond what doubles resolve, leave no finite contact duration); set dt";
+  });
   const double crit = critical_time_step();
   if (dt_ > crit && !opt_.allow_unstable_dt)
     throw InvalidArgument("dt = " + fmt(dt_) + " s exceeds the stability bound " + fmt(crit) +
@@ -798,9 +803,9 @@ std::vector<std::pair<std::string, std::size_t>> Simulation::memory_bytes() cons
                         pair_state_.bytes()},
       {"walls", bytes(wall_offset_, wall_index_, wall_owner_, wall_near_offset_, wall_near_) +
                     wall_state_.bytes()},
-      {"scratch", bytes(cell_start_, cell_of_, perm_, old_index_of_, active_, old_near_offset_,
-                        old_wall_offset_, old_wall_index_, old_near_partner_id_, scratch_,
-                        scratch_int_) +
+      {"scratch", bytes(cell_start_, cell_of_, cell_key_, perm_, old_index_of_, active_,
+                        old_near_offset_, old_wall_offset_, old_wall_index_, old_near_partner_id_,
+                        scratch_, scratch_int_) +
                       old_state},
   };
 }

@@ -7,12 +7,22 @@ import numbers
 
 import numpy as np
 
+from . import _core
+
+
+def _real(name: str, value) -> float:
+    """A real number (not a bool) as a float; an integer beyond the range of floats is refused."""
+    if isinstance(value, bool) or not isinstance(value, numbers.Real):
+        raise TypeError(f"{name} must be a real number, got {value!r}")
+    try:
+        return float(value)
+    except OverflowError:
+        raise ValueError(f"{name} must be a finite number, got {value!r}") from None
+
 
 def positive(name: str, value, *, allow_zero: bool = False) -> float:
     """A finite real number > 0 (or >= 0 with ``allow_zero``)."""
-    if isinstance(value, bool) or not isinstance(value, numbers.Real):
-        raise TypeError(f"{name} must be a real number, got {value!r}")
-    v = float(value)
+    v = _real(name, value)
     if not math.isfinite(v) or v < 0 or (v == 0 and not allow_zero):
         bound = ">= 0" if allow_zero else "> 0"
         raise ValueError(f"{name} must be a finite number {bound}, got {value!r}")
@@ -20,9 +30,7 @@ def positive(name: str, value, *, allow_zero: bool = False) -> float:
 
 
 def in_range(name: str, value, lo: float, hi: float, *, lo_open: bool, hi_open: bool) -> float:
-    if isinstance(value, bool) or not isinstance(value, numbers.Real):
-        raise TypeError(f"{name} must be a real number, got {value!r}")
-    v = float(value)
+    v = _real(name, value)
     ok = math.isfinite(v) and (v > lo if lo_open else v >= lo) and (v < hi if hi_open else v <= hi)
     if not ok:
         interval = ("(" if lo_open else "[") + f"{lo:g}, {hi:g}" + (")" if hi_open else "]")
@@ -30,12 +38,50 @@ def in_range(name: str, value, lo: float, hi: float, *, lo_open: bool, hi_open: 
     return v
 
 
+# Bytes one sphere costs at least: the engine's particle arrays (about 140) and the copies the
+# checks make of its input (56). Its neighbour lists and contact state come on top (300-1,500
+# bytes in dense packs) and are checked when the list is built (neighbor.cpp); refusing here only
+# what cannot fit even without them never refuses a scene that would fit.
+BYTES_PER_SPHERE = 256
+
+
+def fits_in_memory(name: str, count: int, what: str = "spheres") -> None:
+    """MemoryError, before anything is allocated, when ``count`` spheres cannot fit in the memory
+    the process can still use."""
+    available = _core.available_memory()
+    need = count * BYTES_PER_SPHERE
+    if need > available:
+        raise MemoryError(
+            f"{name}: {count} {what} need about {need / 2**30:.3g} GiB ({BYTES_PER_SPHERE} bytes "
+            f"each), more than the {available / 2**30:.3g} GiB of memory available")
+
+
+def _float_array(name: str, value, expected: str) -> np.ndarray:
+    """``value`` as a new C-contiguous float64 array (never a view of the caller's data); refuses
+    booleans, complex numbers, strings and other non-numbers with TypeError, and counts that
+    cannot fit in memory (a broadcast view of a billion rows) with MemoryError."""
+    shape = getattr(value, "shape", None)
+    if isinstance(shape, tuple) and len(shape) >= 1 and all(isinstance(k, int) for k in shape):
+        fits_in_memory(name, shape[0], "rows")
+    try:
+        a = np.asarray(value)
+    except (TypeError, ValueError):
+        raise TypeError(f"{name} must be {expected}, got {type(value).__name__}") from None
+    if a.dtype.kind == "O":
+        if not all(isinstance(v, numbers.Real) and not isinstance(v, bool) for v in a.flat):
+            raise TypeError(f"{name} must be {expected} of real numbers, got {value!r}")
+        try:
+            return np.array(a, dtype=float, order="C", copy=True)
+        except OverflowError:
+            raise ValueError(f"{name} must be finite, got {value!r}") from None
+    if a.dtype.kind not in "iuf":
+        raise TypeError(f"{name} must be {expected} of real numbers, got an array of dtype {a.dtype}")
+    return np.array(a, dtype=float, order="C", copy=True)
+
+
 def vec3(name: str, value) -> tuple[float, float, float]:
     """A finite 3-vector."""
-    try:
-        a = np.asarray(value, dtype=float)
-    except (TypeError, ValueError):
-        raise TypeError(f"{name} must be a sequence of 3 numbers, got {value!r}") from None
+    a = _float_array(name, value, "a sequence of 3 numbers")
     if a.shape != (3,):
         raise ValueError(f"{name} must have 3 components, got shape {a.shape}: {value!r}")
     if not np.all(np.isfinite(a)):
@@ -44,13 +90,13 @@ def vec3(name: str, value) -> tuple[float, float, float]:
 
 
 def points(name: str, value, n: int | None = None) -> np.ndarray:
-    """An (n, 3) array of finite floats; a single 3-vector is promoted to shape (1, 3)."""
-    try:
-        a = np.array(value, dtype=float, order="C", copy=True)
-    except (TypeError, ValueError):
-        raise TypeError(f"{name} must be an array of shape (N, 3), got {type(value).__name__}") from None
+    """An (n, 3) array of finite floats, copied; a single 3-vector is promoted to shape (1, 3)
+    and an empty sequence to shape (0, 3)."""
+    a = _float_array(name, value, "an array of shape (N, 3)")
     if a.ndim == 1 and a.shape == (3,):
         a = a.reshape(1, 3)
+    if a.ndim == 1 and a.shape == (0,):
+        a = a.reshape(0, 3)
     if a.ndim != 2 or a.shape[1] != 3:
         raise ValueError(f"{name} must have shape (N, 3), got shape {a.shape}")
     if n is not None and a.shape[0] != n:
@@ -64,10 +110,7 @@ def points(name: str, value, n: int | None = None) -> np.ndarray:
 
 def radii(name: str, value, n: int) -> np.ndarray:
     """A scalar or an (n,) array of finite radii > 0."""
-    try:
-        a = np.array(value, dtype=float, copy=True)
-    except (TypeError, ValueError):
-        raise TypeError(f"{name} must be a number or an array of shape ({n},), got {value!r}") from None
+    a = _float_array(name, value, f"a number or an array of shape ({n},)")
     if a.ndim == 0:
         a = np.full(n, float(a))
     if a.shape != (n,):
@@ -81,16 +124,19 @@ def radii(name: str, value, n: int) -> np.ndarray:
 
 def choice(name: str, value, options) -> str:
     """One of the names in ``options`` (for the string-valued arguments, ``_core.choices``)."""
-    if value not in options:
+    if not isinstance(value, str) or value not in options:  # (an array would compare elementwise)
         names = [f"'{o}'" for o in options]
         listing = ", ".join(names[:-1]) + " or " + names[-1] if len(names) > 1 else names[0]
         raise ValueError(f"{name} must be {listing}, got {value!r}")
     return value
 
 
-def whole(name: str, value, *, minimum: int = 0) -> int:
+def whole(name: str, value, *, minimum: int = 0, maximum: int = 2**62) -> int:
+    """An integer (not a bool) in [minimum, maximum]."""
     if isinstance(value, bool) or not isinstance(value, numbers.Integral):
         raise TypeError(f"{name} must be an integer, got {value!r}")
     if value < minimum:
         raise ValueError(f"{name} must be >= {minimum}, got {value!r}")
+    if value > maximum:
+        raise ValueError(f"{name} must be <= {maximum}, got {value!r}")
     return int(value)

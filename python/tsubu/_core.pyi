@@ -9,7 +9,7 @@ import collections.abc
 import numpy
 import numpy.typing
 import typing
-__all__: list[str] = ['InstabilityError', 'Material', 'PairParams', 'Simulation', 'choices', 'compiled_law_count', 'hertz_damping_factor', 'hertz_restitution', 'openmp']
+__all__: list[str] = ['InstabilityError', 'Material', 'PairParams', 'Simulation', 'available_memory', 'choices', 'compiled_law_count', 'hertz_damping_factor', 'hertz_restitution', 'openmp']
 class InstabilityError(RuntimeError):
     pass
 class Material:
@@ -351,6 +351,10 @@ class Simulation:
     @property
     def time(self) -> float:
         ...
+def available_memory() -> int:
+    """
+    Bytes the process can still allocate (MemAvailable, capped by the cgroup's limit).
+    """
 def hertz_damping_factor(restitution: typing.SupportsFloat | typing.SupportsIndex, clipped: bool) -> float:
     """
     The factor f of eta_n = f sqrt(S_n m*) that gives restitution e: 2 sqrt(5/6) |beta|, or, for a force clipped at zero, the value found by bisection on hertz_restitution

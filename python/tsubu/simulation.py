@@ -88,8 +88,8 @@ class Simulation:
         the shortest contact duration of the scene, evaluated when a run starts. A dt above
         ``critical_time_step()`` (2.31) is refused unless ``allow_unstable_dt`` is True.
     threads : int or None
-        OpenMP threads. None: OpenMP's default (all cores). Results are bit-identical for any
-        count.
+        OpenMP threads, 1 to 4096. None: OpenMP's default (all cores). Results are
+        bit-identical for any count.
     parallel_min : int
         Scenes with fewer spheres than this run on one thread, whatever ``threads`` says: there
         a parallel region costs more than it saves (and on a machine whose cores are busy with
@@ -159,10 +159,8 @@ class Simulation:
         self.gravity = gravity
         self.dt = dt
         self.threads = threads
-        self._core.parallel_min = _checks.whole("parallel_min", parallel_min)
-        self._core.seed = _checks.whole("seed", seed)
-        if seed >= 2**64:
-            raise ValueError(f"seed must be < 2**64, got {seed!r}")
+        self._core.parallel_min = _checks.whole("parallel_min", parallel_min, maximum=2**31 - 1)
+        self._core.seed = _checks.whole("seed", seed, maximum=2**64 - 1)
         if skin is not None:
             self._core.skin_option = _checks.positive("skin", skin)
         _checks.choice("tangential_history", tangential_history, _core.choices["tangential_history"])
@@ -194,7 +192,10 @@ class Simulation:
 
     @gravity.setter
     def gravity(self, value) -> None:
-        self._core.gravity = _checks.vec3("gravity", value)
+        g = _checks.vec3("gravity", value)
+        if self.size:
+            _energies_fit("gravity", self.masses, self.radii, x=self.positions, g=g)
+        self._core.gravity = g
 
     @property
     def dt(self) -> float:
@@ -217,7 +218,8 @@ class Simulation:
 
     @threads.setter
     def threads(self, value) -> None:
-        self._core.threads = 0 if value is None else _checks.whole("threads", value, minimum=1)
+        self._core.threads = 0 if value is None else _checks.whole("threads", value, minimum=1,
+                                                                  maximum=MAX_THREADS)
 
     @property
     def parallel_min(self) -> int:
@@ -292,7 +294,9 @@ class Simulation:
     def reserve(self, count: int) -> None:
         """Make room for ``count`` spheres in all (an integer >= 0) before adding them in
         batches: the engine's particle arrays then grow once, which keeps peak memory down."""
-        self._core.reserve(_checks.whole("count", count))
+        count = _checks.whole("count", count)
+        _checks.fits_in_memory("count", count)
+        self._core.reserve(count)
 
     def add_spheres(self, positions, radius, material: Material, velocities=None,
                     angular_velocities=None) -> np.ndarray:
@@ -301,13 +305,26 @@ class Simulation:
         positions : (N, 3) [m]; radius : float or (N,) [m], > 0; material : Material;
         velocities : (N, 3) [m/s] or None (zero); angular_velocities : (N, 3) [rad/s] or None.
         Mass is density 4/3 pi r^3 and the moment of inertia 2/5 m r^2 (1.3).
+
+        The arrays are copied (later changes to them do not reach the simulation). Raises
+        TypeError for non-numbers (booleans, complex numbers and strings too), ValueError for
+        wrong shapes, non-finite values and radii whose mass or moment of inertia (or their
+        inverses) overflow or vanish for the material's density, MemoryError, before anything is
+        allocated, for more spheres than the available memory holds (about 400 bytes each).
         """
         x = _checks.points("positions", positions)
         n = x.shape[0]
+        _checks.fits_in_memory("positions", self.size + n)
         r = _checks.radii("radius", radius, n)
+        if not isinstance(material, Material):
+            raise TypeError(f"material must be a tsubu.Material, got {material!r}")
+        mass = _check_mass(r, material)
         mat = self._material(material, scene=True)
         v = None if velocities is None else _checks.points("velocities", velocities, n)
         w = None if angular_velocities is None else _checks.points("angular_velocities", angular_velocities, n)
+        _energies_fit("positions", mass, r, x=x, g=self.gravity)
+        _energies_fit("velocities", mass, r, v=v)
+        _energies_fit("angular_velocities", mass, r, w=w)
         first = self._core.add_spheres(x, r, np.full(n, mat, dtype=np.intc), v, w)
         return np.arange(first, first + n, dtype=np.int64)
 
@@ -343,19 +360,21 @@ class Simulation:
                 raise TypeError(f"coefficients must be 4 numbers (a, b, c, d), got {coefficients!r}") from None
             if c.shape != (4,) or not np.all(np.isfinite(c)):
                 raise ValueError(f"coefficients must be 4 finite numbers (a, b, c, d), got {coefficients!r}")
-            nrm2 = float(c[:3] @ c[:3])
-            if nrm2 == 0:
+            scale = float(np.max(np.abs(c[:3])))
+            if scale == 0:
                 raise ValueError(f"coefficients (a, b, c) must not all be zero, got {coefficients!r}")
-            normal = c[:3]
-            point = -c[3] * c[:3] / nrm2
+            with np.errstate(all="ignore"):
+                c = c / scale  # (a, b, c) of order 1: |n|^2 neither overflows nor underflows
+                normal = c[:3]
+                point = -c[3] * c[:3] / float(c[:3] @ c[:3])
+            if not np.all(np.isfinite(point)):
+                raise ValueError(f"coefficients put the plane beyond the range of floats: {coefficients!r}")
         if point is None:
             point = (0.0, 0.0, 0.0)
         if normal is None:
             normal = (0.0, 0.0, 1.0)
         p = _checks.vec3("point", point)
-        nrm = _checks.vec3("normal", normal)
-        if math.hypot(*nrm) == 0:
-            raise ValueError(f"normal must not be zero, got {normal!r}")
+        nrm = _unit("normal", normal)
         return self._core.add_plane(p, nrm, self._material(material, scene=True), _checks.vec3("velocity", velocity),
                                     _checks.vec3("angular_velocity", angular_velocity))
 
@@ -370,7 +389,8 @@ class Simulation:
         """A wall's current point, unit normal, velocity and angular velocity."""
         wall = _checks.whole("wall", wall)
         if wall >= self._core.plane_count:
-            raise ValueError(f"wall must be < {self._core.plane_count}, got {wall}")
+            raise ValueError(f"wall {wall} does not exist: the simulation has {self._core.plane_count} "
+                             f"walls (wall must be < {self._core.plane_count})")
         d = self._core.plane(wall)
         return {k: (np.array(v) if k != "material" else self._materials_by_index(v)) for k, v in d.items()}
 
@@ -441,7 +461,7 @@ class Simulation:
             raise TypeError("run needs exactly one of steps= or time=")
         if time is not None:
             t = _checks.positive("time", time, allow_zero=True)
-            steps = int(round(t / self.dt))
+            steps = _steps_for(t, self.dt)
         steps = _checks.whole("steps", steps)
         self._running = True
         try:
@@ -524,7 +544,9 @@ class Simulation:
 
     @positions.setter
     def positions(self, value) -> None:
-        self._core.set_positions(_checks.points("positions", value, self.size))
+        x = _checks.points("positions", value, self.size)
+        _energies_fit("positions", self.masses, self.radii, x=x, g=self.gravity)
+        self._core.set_positions(x)
 
     @property
     def velocities(self) -> np.ndarray:
@@ -533,7 +555,9 @@ class Simulation:
 
     @velocities.setter
     def velocities(self, value) -> None:
-        self._core.set_velocities(_checks.points("velocities", value, self.size))
+        v = _checks.points("velocities", value, self.size)
+        _energies_fit("velocities", self.masses, self.radii, v=v)
+        self._core.set_velocities(v)
 
     @property
     def angular_velocities(self) -> np.ndarray:
@@ -542,7 +566,9 @@ class Simulation:
 
     @angular_velocities.setter
     def angular_velocities(self, value) -> None:
-        self._core.set_angular_velocities(_checks.points("angular_velocities", value, self.size))
+        w = _checks.points("angular_velocities", value, self.size)
+        _energies_fit("angular_velocities", self.masses, self.radii, w=w)
+        self._core.set_angular_velocities(w)
 
     @property
     def radii(self) -> np.ndarray:
@@ -589,8 +615,19 @@ class Simulation:
         symplectic Euler's modified energy, exactly conserved for linear springs however close
         dt is to the bound; with ``dissipated`` it is the balance that tsubu's own instability
         check uses (docs/physics.md). Without at_positions, ``step_correction`` is 0.
+
+        Raises ValueError if a part is not finite: input whose energy would overflow is refused
+        (a sphere's kinetic, rotational or gravitational energy above 1e300 J), so only a run
+        that drove the state there (an enormous gravity, say) can get there.
         """
-        return self._core.energy(bool(at_positions))
+        if not isinstance(at_positions, (bool, np.bool_)):
+            raise TypeError(f"at_positions must be a bool, got {at_positions!r}")
+        energies = self._core.energy(bool(at_positions))
+        if not all(math.isfinite(e) for e in energies.values()):
+            raise ValueError("energy: the state's energies overflow doubles (" + ", ".join(
+                f"{k} {e!r} J" for k, e in energies.items() if not math.isfinite(e)) + "): a run "
+                "drove speeds or positions beyond what doubles resolve")
+        return energies
 
     # ---- neighbour list ----------------------------------------------------------------------
     def rebuild_neighbors(self) -> None:
@@ -639,6 +676,73 @@ class Simulation:
             return "tsubu.Simulation(running)"
         return (f"tsubu.Simulation({self.size} spheres, {self._core.plane_count} walls, "
                 f"t = {self.time:.6g} s, step {self.step_count})")
+
+
+# Far more than any machine's cores: OpenMP would try to start every thread asked for.
+MAX_THREADS = 4096
+
+
+def _steps_for(duration: float, dt: float) -> int:
+    """The whole number of steps of ``dt`` nearest to ``duration`` (ValueError when that is not a
+    finite count)."""
+    count = duration / dt if math.isfinite(dt) else math.inf
+    if not count <= 2**62:
+        raise ValueError(f"time={duration!r} s is {count:g} steps of dt = {dt!r} s: more than 2**62 "
+                         "steps (or dt is not finite: set dt)")
+    return int(round(count))
+
+
+def _unit(name: str, value) -> tuple[float, float, float]:
+    """A finite nonzero 3-vector, scaled to unit length without overflow or underflow."""
+    v = np.array(_checks.vec3(name, value))
+    scale = float(np.max(np.abs(v)))
+    if scale == 0:
+        raise ValueError(f"{name} must not be zero, got {value!r}")
+    v = v / scale
+    v = v / math.sqrt(float(v @ v))
+    return (float(v[0]), float(v[1]), float(v[2]))
+
+
+# The largest energy [J] one sphere may have (kinetic, rotational or gravitational): sums over
+# many spheres, and products in the energy balance, stay inside the range of doubles.
+MAX_SPHERE_ENERGY = 1e300
+
+
+def _energies_fit(name: str, mass, radius, *, x=None, v=None, w=None, g=None) -> None:
+    """ValueError naming ``name`` when a sphere's kinetic, rotational or gravitational energy
+    would exceed MAX_SPHERE_ENERGY (or overflow)."""
+    with np.errstate(all="ignore"):
+        if v is not None:
+            e, what = 0.5 * mass * np.einsum("ij,ij->i", v, v), "kinetic"
+        elif w is not None:
+            e, what = 0.2 * mass * radius * radius * np.einsum("ij,ij->i", w, w), "rotational"
+        elif x is not None and g is not None:
+            e, what = mass * np.abs(np.asarray(x) @ np.asarray(g)), "gravitational"
+        else:
+            return
+        bad = ~(e <= MAX_SPHERE_ENERGY)
+    if bad.any():
+        k = int(np.argmax(bad))
+        raise ValueError(f"{name}: sphere {k} would have a {what} energy of {float(e[k]):g} J, beyond "
+                         f"{MAX_SPHERE_ENERGY:g} J (sums of such energies overflow doubles)")
+
+
+def _check_mass(radius: np.ndarray, material: Material) -> np.ndarray:
+    """The mass and moment of inertia of every sphere, and their inverses, must be finite and > 0
+    in doubles (a radius of 1e-120 m or 1e120 m is not)."""
+    with np.errstate(over="ignore", under="ignore", divide="ignore"):
+        mass = material.density * 4.0 / 3.0 * math.pi * radius ** 3
+        inertia = 0.4 * mass * radius * radius
+        ok = (np.isfinite(mass) & (mass > 0) & np.isfinite(1.0 / mass) & np.isfinite(inertia)
+              & (inertia > 0) & np.isfinite(1.0 / inertia))
+    if not ok.all():
+        k = int(np.argmin(ok))
+        raise ValueError(
+            f"radius: entry {k} ({float(radius[k])!r} m) with density {material.density!r} kg/m^3 "
+            f"gives a mass of {float(mass[k])!r} kg and a moment of inertia of {float(inertia[k])!r} "
+            "kg m^2; both and "
+            "their inverses must be finite and > 0 in double precision")
+    return mass
 
 
 def _label(material: Material) -> str:

@@ -1,5 +1,6 @@
 // Tests of the Simulation: the contact-history map across neighbour rebuilds, determinism,
 // a closed-form collision, and errors as exceptions.
+#include <algorithm>
 #include <cmath>
 #include <random>
 #include <vector>
@@ -145,6 +146,39 @@ void test_errors() {
   CHECK(std::isfinite(x[2]));
 }
 
+// A lone sphere 1e300 m away makes the grid sparse: the cluster keeps its pairs, bit for bit.
+// A list that cannot fit throws ResourceError before the rebuild changes anything.
+void test_sparse_grid_and_list_limit() {
+  auto cluster = [](bool far) {
+    Options o;
+    o.gravity = Vec3(0, 0, -9.81);
+    Simulation s(o);
+    const int g = s.add_material(glass());
+    for (int k = 0; k < 64; ++k)
+      s.add_sphere(Vec3((k % 4) * 2.1 * kR, (k / 4 % 4) * 2.1 * kR, (k / 16 + 1) * 2.1 * kR), kR, g,
+                   Vec3(0.01 * (k % 3), 0, 0));
+    if (far) s.add_sphere(Vec3(1e300, 0, 1.0), kR, g);
+    s.add_plane(Vec3::Zero(), Vec3(0, 0, 1), g);
+    s.run(500);
+    return s;
+  };
+  Simulation near = cluster(false), far = cluster(true);
+  std::vector<double> xn(3 * 64), xf(3 * 65);
+  near.get_positions(xn.data());
+  far.get_positions(xf.data());
+  CHECK(std::equal(xn.begin(), xn.end(), xf.begin()));
+  CHECK(near.neighbor_pairs() == far.neighbor_pairs());
+
+  Options o;
+  o.skin = 1e3;
+  Simulation big(o);
+  const int g = big.add_material(glass());
+  const int n = 20000;
+  for (int k = 0; k < n; ++k) big.add_sphere(Vec3(k * 4 * kR, 0, 0), kR, g);
+  CHECK_THROWS(big.rebuild_neighbors(), ResourceError);
+  CHECK(big.neighbor_pairs().empty());
+}
+
 }  // namespace
 
 int main() {
@@ -153,5 +187,6 @@ int main() {
   test_thread_count_independence();
   test_head_on_restitution();
   test_errors();
+  test_sparse_grid_and_list_limit();
   return tsubu_test::finish("test_simulation");
 }

@@ -20,6 +20,11 @@ void* map_large(std::size_t bytes);
 void unmap_large(void* p, std::size_t bytes);
 }  // namespace detail
 
+// Bytes the process can still allocate without swapping or being killed: the kernel's
+// MemAvailable, capped by the cgroup's limit less its usage (Linux); the physical memory
+// elsewhere. Requests larger than this are refused up front (ResourceError).
+std::size_t available_memory();
+
 template <class T>
 struct LargePageAllocator {
   using value_type = T;

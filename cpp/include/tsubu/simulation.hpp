@@ -329,6 +329,18 @@ class Simulation {
   std::array<double, int(Phase::Count)> phase_seconds_{};
   // Scratch reused by rebuilds and steps (no allocation once warm).
   Array<Index> cell_start_, cell_of_, perm_, old_index_of_, active_;
+  // The cell grid of a rebuild (neighbor.cpp): dense (every cell of the particles' bounding box,
+  // cell c = (z dims_y + y) dims_x + x) when that is at most 2 N + 1000 cells, else sparse: only
+  // the occupied cells, by their sorted (z, y, x) keys in cell_key_, so that spheres kilometres
+  // apart cost memory in proportion to N, not to the volume they span.
+  struct CellGrid {
+    Vec3 lo = Vec3::Zero(), hi = Vec3::Zero();  // the particles' bounding box
+    double h = 1;                                // cell side
+    std::array<long, 3> dims{1, 1, 1};
+    bool sparse = false;
+  };
+  using CellKey = std::array<std::int64_t, 3>;
+  Array<CellKey> cell_key_;
   Array<Index> old_near_offset_, old_wall_offset_, old_wall_index_;
   Array<Id> old_near_partner_id_;
   // Per-entry state carried across refreshes (EntryStore::carried). The near list's is stashed
@@ -403,7 +415,16 @@ class Simulation {
   // entries' wall indices, the current list's or the stashed one's).
   static WallKey wall_key(const Array<Index>& walls, Index entry) { return {walls[entry], 0}; }
   void size_entry_buffers();
-  void sort_by_cell(double cell_size, const Vec3& lo, const std::array<long, 3>& dims);
+  CellGrid plan_grid(double skin) const;
+  CellKey cell_of(const CellGrid& g, const double* x) const;
+  // Bins the particles (cell_of_, cell_start_, perm_) without moving them.
+  void bin_by_cell(const CellGrid& g);
+  // Throws ResourceError, before the rebuild changes anything, when the Verlet list the grid
+  // would give cannot fit in memory (or in its 32-bit indices).
+  void check_list_fits(const CellGrid& g, double skin) const;
+  double list_bytes_per_pair() const;
+  // Applies perm_: the particles in cell order.
+  void sort_by_cell();
 };
 
 namespace detail {

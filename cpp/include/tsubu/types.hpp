@@ -45,6 +45,12 @@ struct InvalidArgument : std::invalid_argument {
   using std::invalid_argument::invalid_argument;
 };
 
+// Thrown, before anything is allocated or changed, for a request that cannot fit in memory
+// (the Python layer raises MemoryError with the message).
+struct ResourceError : std::runtime_error {
+  using std::runtime_error::runtime_error;
+};
+
 // Thrown when a run becomes unstable (non-finite values, excessive overlap). The state of the
 // step before the failing one is left in place.
 struct InstabilityError : std::runtime_error {

@@ -1,0 +1,135 @@
+"""Requests that cannot fit are refused up front (MemoryError or ValueError naming what and why),
+and spheres spread over kilometres run in memory proportional to their number."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import tsubu
+from tsubu import _checks, _core
+
+
+def test_available_memory_is_a_positive_figure():
+    assert _core.available_memory() > 0
+
+
+def test_spheres_beyond_memory_are_refused_before_copying():
+    # A broadcast view costs nothing; its copy would need far more than any machine has.
+    huge = np.broadcast_to(np.zeros(3), (10**13, 3))
+    sim = tsubu.Simulation()
+    with pytest.raises(MemoryError, match=r"positions: 10000000000000 rows need about .* GiB"):
+        sim.add_spheres(huge, 1e-3, tsubu.Material())
+    assert sim.size == 0
+
+
+def test_reserve_beyond_memory_is_refused():
+    sim = tsubu.Simulation()
+    with pytest.raises(MemoryError, match=r"count: 1000000000000000 spheres .* more than the .* GiB"):
+        sim.reserve(10**15)
+    with pytest.raises(ValueError, match=r"count must be <= 2\*\*62|count must be <= 4611686018427387904"):
+        sim.reserve(2**70)
+
+
+def test_memory_estimate_is_a_lower_bound_of_what_a_sphere_costs():
+    # BYTES_PER_SPHERE refuses only what cannot fit: it covers the particle arrays and stays below
+    # what a sphere of a dense pack costs with its lists.
+    sim = tsubu.Simulation(threads=1, dt=1e-6, gravity=(0, 0, 0))
+    side = 12
+    g = np.arange(side) * 2.02e-3
+    x = np.stack(np.meshgrid(g, g, g, indexing="ij"), -1).reshape(-1, 3)
+    sim.add_spheres(x, 1e-3, tsubu.Material())
+    sim.run(steps=1)
+    held = sim.memory_bytes()
+    assert held["particles"] < _checks.BYTES_PER_SPHERE * sim.size < sum(held.values())
+
+
+def test_neighbour_list_that_cannot_fit_is_refused_with_the_state_kept():
+    # 20,000 spheres 2 mm apart with a 1 km skin: every pair would be in the list, 2e8 pairs of
+    # over 100 bytes each, more than the 32-bit indices (and most machines' memory) hold.
+    n = 20_000
+    x = np.column_stack([np.arange(n) * 2e-3, np.zeros(n), np.zeros(n)])
+    sim = tsubu.Simulation(threads=1, dt=1e-6, skin=1e3, gravity=(0, 0, 0))
+    sim.add_spheres(x, 0.5e-3, tsubu.Material(), velocities=np.full((n, 3), 1e-3))
+    before = sim.positions.copy()
+    with pytest.raises(MemoryError, match=r"neighbour list of 20000 spheres would hold over .* pairs"
+                                          r".*skin 1000\.0+ m"):
+        sim.run(steps=1)
+    np.testing.assert_array_equal(sim.positions, before)
+    assert sim.step_count == 0
+    sim2 = tsubu.Simulation(threads=1, dt=1e-6, skin=1e3)
+    sim2.add_spheres(x, 0.5e-3, tsubu.Material())
+    with pytest.raises(MemoryError, match="neighbour list"):
+        sim2.rebuild_neighbors()
+
+
+def test_huge_radius_among_small_spheres_runs():
+    # One boulder (1 m) above a layer of 2,000 pebbles (0.1 mm): the cells are 2 m wide and every
+    # pebble is a candidate of every other, but the list holds only the close pairs and fits.
+    n = 2000
+    rng = np.random.default_rng(3)
+    pebbles = rng.uniform(-0.5, 0.5, (n, 3)) * [1, 1, 0.01]
+    sim = tsubu.Simulation(threads=1, dt=1e-6, gravity=(0, 0, 0))
+    sim.add_spheres([[0, 0, 1.2]], 1.0, tsubu.Material())
+    sim.add_spheres(pebbles[np.argsort(pebbles[:, 0])], 1e-4, tsubu.Material())
+    sim.run(steps=2)
+    assert np.isfinite(sim.positions).all()
+    assert sim.size == n + 1 and sim.memory_bytes()["verlet list"] < 1000 * sim.size
+
+
+def _kilometres_apart(n_cluster: int, spread: float):
+    """A dense cluster of n_cluster spheres (radius 1 mm) and 3 lone spheres ``spread`` m away."""
+    side = round(n_cluster ** (1 / 3))
+    g = np.arange(side) * 2.1e-3
+    x = np.stack(np.meshgrid(g, g, g, indexing="ij"), -1).reshape(-1, 3)
+    lone = np.array([[spread, 0, 0], [0, spread, 0], [-spread, -spread, spread]])
+    sim = tsubu.Simulation(threads=1, dt=1e-6, gravity=(0, 0, 0))
+    sim.add_spheres(np.vstack([x, lone]), 1e-3, tsubu.Material(),
+                    velocities=np.random.default_rng(1).normal(0, 1e-3, (len(x) + 3, 3)))
+    return sim
+
+
+@pytest.mark.parametrize("spread", [5e3, 1e12, 1e300])
+def test_spheres_kilometres_apart_run_in_memory_proportional_to_n(spread):
+    sim = _kilometres_apart(1000, spread)
+    sim.run(steps=20)
+    near = _kilometres_apart(1000, 0.1)
+    near.run(steps=20)
+    # The same engine arrays as a compact scene, give or take the sparse grid's keys.
+    spread_bytes = sum(sim.memory_bytes().values())
+    compact_bytes = sum(near.memory_bytes().values())
+    assert spread_bytes < 1.5 * compact_bytes + 64 * sim.size
+    assert np.isfinite(sim.positions).all()
+    # The cluster keeps its neighbours: the sparse grid does not widen the cells.
+    assert len(sim.neighbor_pairs()) == len(near.neighbor_pairs())
+
+
+def test_sparse_grid_finds_the_same_pairs_as_the_dense_one():
+    # The same cluster with and without a far sphere (which switches the grid to sparse): the
+    # cluster's neighbour pairs and end state agree bit for bit.
+    rng = np.random.default_rng(7)
+    x = rng.uniform(0, 0.02, (400, 3))
+    x = x[np.all(np.linalg.norm(x[:, None] - x[None], axis=-1) + np.eye(len(x)) > 2.2e-3, axis=1)]
+    ends = []
+    for extra in (None, [[4e3, 0, 0]]):
+        sim = tsubu.Simulation(threads=1, dt=1e-6, gravity=(0, 0, -9.81))
+        sim.add_spheres(x, 1e-3, tsubu.Material(), velocities=rng.normal(0, 0.05, x.shape) * 0)
+        if extra is not None:
+            sim.add_spheres(extra, 1e-3, tsubu.Material())
+        sim.run(steps=200)
+        ends.append((sim.positions[: len(x)], sim.neighbor_pairs()))
+    np.testing.assert_array_equal(ends[0][0], ends[1][0])
+    np.testing.assert_array_equal(ends[0][1], ends[1][1])
+
+
+def test_absurd_sizes_are_refused_naming_the_argument():
+    sim = tsubu.Simulation()
+    with pytest.raises(ValueError, match="threads must be <= 4096"):
+        sim.threads = 2**40
+    with pytest.raises(ValueError, match="parallel_min must be <="):
+        tsubu.Simulation(parallel_min=2**70)
+    with pytest.raises(ValueError, match="steps must be <="):
+        sim.run(steps=2**70)
+    sim.dt = 1e-300
+    with pytest.raises(ValueError, match=r"time=1e\+300 s is inf steps"):
+        sim.run(time=1e300)
