@@ -25,23 +25,14 @@ from test_fused_pass import FUSED_MIN, lattice_scene
 
 import tsubu
 
+from bits import assert_same_bits
+
 WARMUP = 10  # steps run before the measured call (the first step of a run never fuses)
 # The call that gets interrupted is sized to take this long at the speed of the steps right
 # after WARMUP; its later steps, with contacts formed, take about three times longer: ~1 s.
 RUN_SECONDS = 0.4
 STOP_AFTER = 0.3  # s
 LATENCY_BOUND = 0.5  # s: the bound
-
-
-def assert_same_bits(a: tsubu.Simulation, b: tsubu.Simulation):
-    assert (a.step_count, a.time) == (b.step_count, b.time)
-    for name in ("positions", "velocities", "angular_velocities", "forces", "torques"):
-        assert np.array_equal(getattr(a, name), getattr(b, name)), name
-    ca, cb = a.contacts(), b.contacts()
-    assert ca.keys() == cb.keys()
-    for key in ca:
-        assert np.array_equal(ca[key], cb[key]), key
-    assert a.energy() == b.energy()
 
 
 @pytest.fixture(scope="module")
