@@ -581,6 +581,17 @@ class Simulation:
         return self._core.masses()
 
     @property
+    def materials(self) -> list:
+        """The materials the Simulation knows (of spheres, walls and pair overrides), in the order
+        of their indices: ``materials[material_ids[k]]`` is sphere k's."""
+        return list(self._materials)
+
+    @property
+    def material_ids(self) -> np.ndarray:
+        """Each sphere's material as an index into :attr:`materials`, shape (N,)."""
+        return np.asarray(self._core.materials(), dtype=np.int64)
+
+    @property
     def forces(self) -> np.ndarray:
         """Total force of the last step (contacts + gravity) [N], shape (N, 3)."""
         return self._core.forces()
