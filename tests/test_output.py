@@ -88,7 +88,7 @@ def settled_scene(threads=1):
     The first 400 steps have no contact (the spheres start touching and part)."""
     glass = tsubu.Material(density=2500.0, kn=2e3, restitution=0.5, friction=0.4, name="glass")
     steel = tsubu.Material(density=7800.0, kn=2e3, restitution=0.6, friction=0.3, name="steel")
-    sim = tsubu.Simulation(gravity=(-3.0, 2.0, -9.81), threads=threads)
+    sim = tsubu.Simulation(gravity=(-3.0, 2.0, -9.81), threads=threads, parallel_min=0)
     rng = np.random.default_rng(5)
     grid = np.stack(np.meshgrid(np.arange(4), np.arange(5), np.arange(2), indexing="ij"), -1).reshape(-1, 3)
     x = (grid * 1.995e-3 + 0.998e-3) + rng.uniform(-2e-6, 2e-6, grid.shape)  # touching

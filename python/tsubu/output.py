@@ -236,6 +236,20 @@ class _VTKWriter:
         self.file.addHeader(name, array.dtype.name, array.shape[0], components)
         self.blocks.append(array)
 
+    def field_data(self, arrays: dict) -> None:
+        """The data set's FieldData: pyevtk leaves out NumberOfTuples, without which VTK's
+        readers (ParaView) read field arrays as empty, so these headers are written here."""
+        self.file.openElement("FieldData")
+        for name, array in arrays.items():
+            vtk_type = self.vtk.np_to_vtk[array.dtype.name]
+            self.file.xml.openElement("DataArray").addAttributes(
+                Name=name, NumberOfTuples=array.shape[0], NumberOfComponents=1, type=vtk_type.name,
+                format="appended", offset=self.file.offset)
+            self.file.xml.closeElement()
+            self.file.offset += array.nbytes + 8  # the block and its UInt64 size
+            self.blocks.append(array)
+        self.file.closeElement("FieldData")
+
     def section(self, element: str, arrays: dict) -> None:
         if not arrays:
             return
@@ -291,7 +305,7 @@ def _write_particles(vtk, path: str, sim, particles: dict) -> None:
     n = particles["id"].shape[0]
     w = _VTKWriter(vtk, path, vtk.VtkUnstructuredGrid)
     w.file.openGrid()
-    w.section("FieldData", _field_data(sim))  # the data set's, beside its pieces
+    w.field_data(_field_data(sim))
     w.file.openPiece(npoints=str(n), ncells=str(n))  # strings: pyevtk drops a count of 0
     w.section("Points", {"points": particles["position"]})
     w.section("Cells", {"connectivity": np.arange(n, dtype=np.int64),
@@ -311,7 +325,7 @@ def _write_contacts(vtk, path: str, sim, network: dict) -> None:
     m = network["i"].shape[0]
     w = _VTKWriter(vtk, path, vtk.VtkPolyData)
     w.file.openGrid()
-    w.section("FieldData", _field_data(sim))  # the data set's, beside its pieces
+    w.field_data(_field_data(sim))
     w.file.openPiece(npoints=str(2 * m), nlines=str(m))
     w.section("Points", {"points": np.stack([network["start"], network["end"]], axis=1).reshape(-1, 3)})
     w.section("Lines", {"connectivity": np.arange(2 * m, dtype=np.int64),
@@ -330,7 +344,7 @@ def _write_walls(vtk, path: str, sim, walls: dict) -> None:
     count = walls["wall"].shape[0]
     w = _VTKWriter(vtk, path, vtk.VtkPolyData)
     w.file.openGrid()
-    w.section("FieldData", _field_data(sim))  # the data set's, beside its pieces
+    w.field_data(_field_data(sim))
     w.file.openPiece(npoints=str(4 * count), npolys=str(count))
     w.section("Points", {"points": walls["corners"].reshape(-1, 3)})
     w.section("Polys", {"connectivity": np.arange(4 * count, dtype=np.int64),
