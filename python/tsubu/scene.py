@@ -5,7 +5,7 @@ inserter or a file), the simulation's options, how long to run and what to write
 defined once, by the declarative spec :data:`SPEC` in this module: the loader validates with it
 (every bad or unknown key is reported with its path in the file and its value), and the JSON
 Schema (``docs/scene.schema.json``) and the key reference in ``docs/scene-format.md`` are
-generated from it (``python -m tsubu.scene schema`` / ``python -m tsubu.scene reference``).
+generated from it (``python -m tsubu.scene write-docs docs`` rewrites both).
 
 Values that pass the spec are then handed to tsubu's own constructors (:class:`tsubu.Material`,
 :class:`tsubu.Simulation`, ``add_plane``, the generators of :mod:`tsubu.fill`, ...); a
@@ -276,8 +276,11 @@ class Vector(Node):
         return v
 
     def schema(self):
-        return {"type": "array", "items": {"type": "number"}, "minItems": self.length,
-                "maxItems": self.length}
+        s = {"type": "array", "items": {"type": "number"}, "minItems": self.length,
+             "maxItems": self.length}
+        if self.nonzero:
+            s["not"] = {"items": {"const": 0}}
+        return s
 
     def kind(self):
         return f"array of {self.length} numbers" + (", not all 0" if self.nonzero else "")
@@ -1085,6 +1088,8 @@ class _Builder:
         """Positions, radii, velocities and angular velocities of a file of tsubu.output."""
         file = os.path.join(self.directory, block["path"])
         where = _join(path, "path")
+        if not os.path.isfile(file):
+            self.fail(where, block["path"], f"no such file ({file})")
         try:
             columns = _read_columns(file)
         except (OSError, ValueError) as e:
@@ -1142,9 +1147,10 @@ class _Builder:
                 "keep": spec.get("keep", 3)}
 
 
-# Names a particle file's columns may have: tsubu.output's first, then common spellings.
+# Names a particle file's columns may have: tsubu.output's first, then common spellings. A
+# vector is one (N, 3) array (npz) or three columns NAME_x, NAME_y, NAME_z (CSV).
 _PARTICLE_COLUMNS = (
-    ("positions", ("positions", "position", "x"), 3),
+    ("positions", ("positions", "position", ""), 3),
     ("radii", ("radii", "radius", "r"), 1),
     ("velocities", ("velocities", "velocity", "v"), 3),
     ("angular_velocities", ("angular_velocities", "angular_velocity", "omega", "w"), 3),
@@ -1168,15 +1174,13 @@ def _read_columns(file: str) -> dict:
 
 def _column(columns: dict, aliases, width: int):
     for name in aliases:
-        if name in columns:
-            a = np.asarray(columns[name], dtype=float)
-            return a.reshape(-1, 3) if width == 3 else a.reshape(-1)
-        parts = [p for p in (f"{name}_x", f"{name}_y", f"{name}_z") if p in columns]
-        if width == 3 and len(parts) == 3:
-            return np.stack([columns[p] for p in parts], axis=1).astype(float)
-        parts = [p for p in (f"{name}0", f"{name}1", f"{name}2") if p in columns]
-        if width == 3 and len(parts) == 3:
-            return np.stack([columns[p] for p in parts], axis=1).astype(float)
+        if width == 1 and name in columns:
+            return np.asarray(columns[name], dtype=float).reshape(-1)
+        if width == 3 and name in columns and np.ndim(columns[name]) == 2:
+            return np.asarray(columns[name], dtype=float).reshape(-1, 3)
+        for x, y, z in ((f"{name}_x", f"{name}_y", f"{name}_z"), (f"{name}x", f"{name}y", f"{name}z")):
+            if width == 3 and x in columns and y in columns and z in columns:
+                return np.stack([columns[x], columns[y], columns[z]], axis=1).astype(float)
     return None
 
 
@@ -1284,17 +1288,42 @@ def _code_default(text: str | None) -> str:
     return f"`{text}`" if literal else text
 
 
+REFERENCE_BEGIN = "<!-- BEGIN GENERATED REFERENCE (python -m tsubu.scene write-docs docs) -->\n"
+REFERENCE_END = "<!-- END GENERATED REFERENCE -->"
+
+
+def schema_text() -> str:
+    """docs/scene.schema.json's expected content."""
+    return json.dumps(json_schema(), indent=2) + "\n"
+
+
+def with_reference(page: str) -> str:
+    """``page`` (docs/scene-format.md) with the part between its markers replaced by
+    :func:`reference_markdown`."""
+    start = page.index(REFERENCE_BEGIN) + len(REFERENCE_BEGIN)
+    return page[:start] + "\n" + reference_markdown() + "\n" + page[page.index(REFERENCE_END):]
+
+
 def main(argv: list[str] | None = None) -> int:
-    """``python -m tsubu.scene schema`` prints the JSON Schema, ``... reference`` the key
-    reference (docs/scene.schema.json and the generated part of docs/scene-format.md)."""
+    """``python -m tsubu.scene write-docs DOCS`` rewrites DOCS/scene.schema.json and the
+    generated reference in DOCS/scene-format.md; ``schema`` and ``reference`` print them."""
     argv = sys.argv[1:] if argv is None else argv
     if argv == ["schema"]:
-        print(json.dumps(json_schema(), indent=2))
+        print(schema_text(), end="")
         return 0
     if argv == ["reference"]:
         print(reference_markdown(), end="")
         return 0
-    print("usage: python -m tsubu.scene schema|reference", file=sys.stderr)
+    if len(argv) == 2 and argv[0] == "write-docs":
+        with open(os.path.join(argv[1], "scene.schema.json"), "w", encoding="utf-8") as f:
+            f.write(schema_text())
+        page = os.path.join(argv[1], "scene-format.md")
+        with open(page, encoding="utf-8") as f:
+            text = with_reference(f.read())
+        with open(page, "w", encoding="utf-8") as f:
+            f.write(text)
+        return 0
+    print("usage: python -m tsubu.scene schema | reference | write-docs DOCS_DIR", file=sys.stderr)
     return 2
 
 
