@@ -578,6 +578,10 @@ def _region(region):
     return region
 
 
+# Lattice rows that fit up to this fraction of a spacing are kept (rounding in extent / spacing).
+_ROUNDING = 1e-9
+
+
 # ---- lattice ----------------------------------------------------------------------------------
 def lattice(region, radius, spacing=None, kind: str = "cubic", jitter=0.0, seed: int = 0) -> Packing:
     """Spheres of one ``radius`` [m] on a lattice filling ``region``, centred in its bounding box.
@@ -609,7 +613,7 @@ def lattice(region, radius, spacing=None, kind: str = "cubic", jitter=0.0, seed:
     extent = region.upper - region.lower
     if kind == "cubic":
         step = np.array([s, s, s])
-        counts = np.floor(np.maximum(extent - 2 * reach, -1.0) / step).astype(np.int64) + 1
+        counts = np.floor(np.maximum(extent - 2 * reach, -1.0) / step + _ROUNDING).astype(np.int64) + 1
         counts = np.maximum(counts, 0)
         _checks.fits_in_memory("spacing", int(np.prod(counts)), "lattice sites")
         grids = [np.arange(c) * step[a] for a, c in enumerate(counts)]
@@ -619,10 +623,11 @@ def lattice(region, radius, spacing=None, kind: str = "cubic", jitter=0.0, seed:
         row, layer = s * math.sqrt(3.0) / 2.0, s * math.sqrt(2.0 / 3.0)
         # rows are shifted by s/2 every other row, and B layers by (s/2, s/(2 sqrt 3))
         span = extent - 2 * reach
-        counts = np.array([math.floor((span[0] - s / 2) / s) + 1 if span[0] >= s / 2 else
+        counts = np.array([math.floor((span[0] - s / 2) / s + _ROUNDING) + 1 if span[0] >= s / 2 else
                            (1 if span[0] >= 0 else 0),
-                           math.floor((span[1] - s / (2 * math.sqrt(3))) / row) + 1 if span[1] >= 0 else 0,
-                           math.floor(span[2] / layer) + 1 if span[2] >= 0 else 0])
+                           math.floor((span[1] - s / (2 * math.sqrt(3))) / row + _ROUNDING) + 1
+                           if span[1] >= 0 else 0,
+                           math.floor(span[2] / layer + _ROUNDING) + 1 if span[2] >= 0 else 0])
         counts = np.maximum(counts, 0)
         _checks.fits_in_memory("spacing", int(np.prod(counts)), "lattice sites")
         k, jj, i = np.meshgrid(np.arange(counts[2]), np.arange(counts[1]), np.arange(counts[0]),
@@ -636,6 +641,8 @@ def lattice(region, radius, spacing=None, kind: str = "cubic", jitter=0.0, seed:
     if len(sites):
         centre = (region.lower + region.upper) / 2
         sites += centre - (sites.min(axis=0) + sites.max(axis=0)) / 2
+        # a lattice that fits exactly (spheres touching the faces) may cross them by rounding
+        sites = np.clip(sites, region.lower + reach, region.upper - reach)
         sites = sites[region.contains(sites, reach)]
     if shift > 0 and len(sites):
         rng = np.random.default_rng(seed)
