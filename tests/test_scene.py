@@ -301,12 +301,14 @@ def needs(*modules):
         pytest.importorskip(m)
 
 
-def test_generators_and_inserters_build_as_in_python():
-    needs("tsubu.fill", "tsubu.insert")
+def test_generators_build_as_in_python():
+    needs("tsubu.fill")
     from tsubu import fill
     data = read("pour.toml")
     data.pop("output")
     data.pop("checkpoint")
+    if not hasattr(tsubu.Simulation, "add_inserter"):
+        data.pop("inserters")
     built = scene.scene_from_dict(data, SCENES)
     sim = built.simulation
     lattice = fill.lattice(fill.Box([-0.003, -0.003, 0.0], [0.003, 0.003, 0.002]), 5e-4, spacing=1.1e-3,
@@ -318,10 +320,26 @@ def test_generators_and_inserters_build_as_in_python():
     assert np.array_equal(sim.positions[:n], lattice.positions)
     assert np.array_equal(sim.positions[n:], packing.positions)
     assert np.array_equal(sim.radii[n:], packing.radii)
-    # dt: t_c/50 of the scene's spheres and of the inserter's 0.4 mm ones
-    assert sim.dt <= sim.default_time_step()
+    assert sim.dt == sim.default_time_step()  # the smallest spheres are the packing's (0.3 mm)
+
+
+def test_inserters_pour_and_set_the_time_step():
+    needs("tsubu.fill", "tsubu.insert")
+    if not hasattr(tsubu.Simulation, "add_inserter"):
+        pytest.skip("Simulation.add_inserter not in this build")
+    from tsubu import fill
+    data = read("pour.toml")
+    for key in ("output", "checkpoint", "particles"):
+        data.pop(key)
+    built = scene.scene_from_dict(data, SCENES)
+    sim = built.simulation
+    assert sim.size == 0
+    # dt: t_c/50 of a sphere of the inserter's (only) radius, 0.4 mm
+    probe = tsubu.Simulation()
+    probe.add_sphere((0, 0, 0), 4e-4, sim.materials[0])
+    assert sim.dt == probe.default_time_step()
     built.run(progress=False)
-    assert sim.size > n + 30  # the inserter poured spheres
+    assert sim.size > 0 and np.all(sim.radii == 4e-4)  # the inserter poured spheres
 
 
 def test_a_generator_error_is_reported_at_its_block():

@@ -899,7 +899,8 @@ class Scene:
             kwargs.update(checkpoint=self.checkpoint["path"], checkpoint_every=self.checkpoint["every"],
                           checkpoint_keep=self.checkpoint["keep"])
         sim.run(time=remaining, **kwargs)
-        if self.checkpoint is not None:
+        if self.checkpoint is not None and getattr(sim, "metadata", None) != self.metadata():
+            # the run's own final checkpoint did not carry the scene: write it again with it
             sim.save(self.checkpoint["path"], metadata=self.metadata())
         return sim
 
@@ -953,6 +954,7 @@ class _Builder:
         self.materials: dict = {}
         self.batches: list = []  # (positions, radii, material, velocities) of every block, for dt
         self.inserters: list = []
+        self.pairs: list = []  # (material_a, material_b, overrides)
 
     def fail(self, path: str, value, message: str):
         raise SceneError([(path, value, message)], self.source)
@@ -979,6 +981,7 @@ class _Builder:
             overrides = {key: v for key, v in pair.items() if key != "materials"}
             a, b = (self.materials[n] for n in pair["materials"])
             self.call(f"pairs[{k}]", overrides, sim.set_pair, a, b, **overrides)
+            self.pairs.append((a, b, overrides))
         for k, wall in enumerate(s.get("walls", [])):
             given = {key: v for key, v in wall.items() if key != "material"}
             self.call(f"walls[{k}]", given, sim.add_plane, material=self.materials[wall["material"]], **given)
@@ -1030,6 +1033,8 @@ class _Builder:
         sphere of its smallest radius at its velocity: what the run will have to resolve."""
         options = self.scene["simulation"]
         probe = Simulation(**{k: v for k, v in options.items() if k not in ("duration", "dt_fraction", "dt")})
+        for a, b, overrides in self.pairs:
+            probe.set_pair(a, b, **overrides)
         for k in range(sim._core.plane_count):
             wall = sim.plane(k)
             probe.add_plane(point=wall["point"], normal=wall["normal"], material=wall["material"])
