@@ -281,6 +281,31 @@ def test_particles_from_npz_and_csv_files(tmp_path):
     assert line.endswith("the file must end in .npz or .csv")
 
 
+def test_a_file_can_name_the_spheres_materials(tmp_path):
+    """An .npz of tsubu.output.save_npz names each sphere's material: a file block without a
+    material gives each sphere the scene's material of that name, in the file's order."""
+    x = np.array([[0, 0, 2e-3], [3e-3, 0, 2e-3], [6e-3, 0, 2e-3], [9e-3, 0, 2e-3]])
+    np.savez(tmp_path / "mixed.npz", position=x, radius=np.full(4, 1e-3), material=np.array([1, 1, 0, 1]),
+             material_names=np.array(["steel", "glass"]))
+    data = read("drop.toml")
+    data["particles"] = [{"generator": "file", "path": "mixed.npz"}]
+    sim = scene.scene_from_dict(data, tmp_path).simulation
+    names = [m.name for m in sim.materials]
+    assert [names[k] for k in sim.material_ids] == ["glass", "glass", "steel", "glass"]
+    assert np.array_equal(sim.positions, x)
+    data["materials"]["iron"] = data["materials"].pop("steel")
+    for wall in data["walls"]:
+        wall["material"] = "iron"
+    data["pairs"][0]["materials"] = ["glass", "iron"]
+    (line,) = errors_of_in(data, tmp_path)
+    assert line == ('particles[0].path = "mixed.npz": its spheres have materials \'steel\', not in '
+                    "[materials] (defined: glass, iron); name them so, or give particles[0].material")
+    np.savez(tmp_path / "plain.npz", position=x, radius=np.full(4, 1e-3))
+    data["particles"][0]["path"] = "plain.npz"
+    (line,) = errors_of_in(data, tmp_path)
+    assert line.startswith("particles[0].material: required: plain.npz does not name its spheres' materials")
+
+
 def errors_of_in(data, directory):
     with pytest.raises(scene.SceneError) as info:
         scene.scene_from_dict(data, directory)

@@ -727,7 +727,10 @@ def _build_spec() -> Table:
             **_motion("every sphere"),
         }, doc="A random non-overlapping packing (tsubu.fill.random_packing).", one_of=(("count", "solid_fraction"),)),
         "file": Table({
-            **common,
+            "material": Field(material_name, "The spheres' material. Without it, each sphere gets "
+                                             "the material the file names (an .npz of "
+                                             "tsubu.output.save_npz: its material and material_names "
+                                             "arrays), which must be one of [materials]."),
             "path": Field(String(), "An .npz or .csv file written by tsubu.output.save_npz / save_csv "
                                     "(relative to the scene file).", required=True),
             "velocities": Field(Boolean(), "Take the velocities and angular velocities from the file "
@@ -762,7 +765,11 @@ def _build_spec() -> Table:
             "walls": Field(Boolean(), "Write the walls.", default="true"),
         }), "ParaView output."),
         "npz": Field(_writer("state", "numpy .npz files (tsubu.output.NpzOutput)."), "npz dumps."),
-        "csv": Field(_writer("state", "CSV files (tsubu.output.CSVOutput)."), "CSV dumps."),
+        "csv": Field(_writer("state", "CSV tables (tsubu.output.CSVOutput), with an index "
+                                      "NAME_frames.csv of steps and times.", {
+            "contacts": Field(Boolean(), "Also write the contact network as NAME_contacts_STEP.csv.",
+                              default="true"),
+        }), "CSV dumps."),
     }, doc="What to write during the run.", name="output")
 
     checkpoint = Table({
@@ -1061,11 +1068,10 @@ class _Builder:
         return self.call(path, given, getattr(fill, cls), **given)
 
     def particles(self, sim: Simulation, path: str, block: dict) -> None:
-        material = self.materials[block["material"]]
         generator = block["generator"]
         velocities = angular = None
         if generator == "file":
-            positions, radii, velocities, angular = self.read_particles(path, block)
+            positions, radii, velocities, angular, materials = self.read_particles(path, block)
         else:
             fill = _fill()
             region = self.region(_join(path, "region"), block["region"])
@@ -1085,9 +1091,14 @@ class _Builder:
                 velocities = np.tile(block["velocity"], (n, 1))
             if "angular_velocity" in block:
                 angular = np.tile(block["angular_velocity"], (n, 1))
-        self.call(path, {}, sim.add_spheres, positions, radii, material, velocities=velocities,
-                  angular_velocities=angular)
-        self.batches.append((positions, radii, material, velocities))
+            materials = [(0, n, self.materials[block["material"]])]
+        for start, stop, material in materials:  # runs of one material, in the file's order
+            part = slice(start, stop)
+            v = None if velocities is None else velocities[part]
+            w = None if angular is None else angular[part]
+            self.call(path, {}, sim.add_spheres, positions[part], radii[part], material, velocities=v,
+                      angular_velocities=w)
+            self.batches.append((positions[part], radii[part], material, v))
 
     def read_particles(self, path: str, block: dict):
         """Positions, radii, velocities and angular velocities of a file of tsubu.output."""
@@ -1107,7 +1118,32 @@ class _Builder:
                                             f"{', '.join(sorted(columns)) or 'nothing'})")
         if not block.get("velocities", True):
             found["velocities"] = found["angular_velocities"] = None
-        return found["positions"], found["radii"], found["velocities"], found["angular_velocities"]
+        n = len(found["radii"])
+        if "material" in block:
+            materials = [(0, n, self.materials[block["material"]])]
+        else:
+            materials = self.file_materials(path, block, columns, n)
+        return (found["positions"], found["radii"], found["velocities"], found["angular_velocities"],
+                materials)
+
+    def file_materials(self, path: str, block: dict, columns: dict, n: int) -> list:
+        """(start, stop, Material) of the runs of spheres of one material that a file names."""
+        if "material" not in columns or "material_names" not in columns:
+            self.fail(_join(path, "material"), MISSING, f"required: {block['path']} does not name its "
+                                                        "spheres' materials (material and material_names "
+                                                        "arrays of tsubu.output.save_npz)")
+        names = [str(x) for x in np.asarray(columns["material_names"]).reshape(-1)]
+        index = np.asarray(columns["material"]).reshape(-1)
+        if len(index) != n or not np.all((index >= 0) & (index < len(names))):
+            self.fail(_join(path, "path"), block["path"], "its material array does not index its "
+                                                          "material_names")
+        unknown = sorted({names[k] for k in set(index.tolist())} - set(self.materials))
+        if unknown:
+            self.fail(_join(path, "path"), block["path"],
+                      f"its spheres have materials {', '.join(map(repr, unknown))}, not in [materials] "
+                      f"(defined: {', '.join(self.materials)}); name them so, or give {path}.material")
+        cuts = [0] + [k for k in range(1, n) if index[k] != index[k - 1]] + [n]
+        return [(a, b, self.materials[names[index[a]]]) for a, b in zip(cuts[:-1], cuts[1:]) if b > a]
 
     def inserter(self, sim: Simulation, path: str, spec: dict) -> None:
         region = self.region(_join(path, "region"), spec["region"])
@@ -1139,8 +1175,11 @@ class _Builder:
             spec = output[key]
             options = {k: v for k, v in spec.items() if k not in ("every", "interval")}
             cls = {"vtk": out.VTKOutput, "npz": out.NpzOutput, "csv": out.CSVOutput}[key]
-            hooks.append(self.call(_join("output", key), options, cls, directory, self.steps(sim, spec),
-                                   **options))
+            try:
+                hooks.append(self.call(_join("output", key), options, cls, directory, self.steps(sim, spec),
+                                       **options))
+            except ImportError as e:  # an optional dependency of the writer (pyevtk)
+                self.fail(_join("output", key), MISSING, str(e))
         return hooks
 
     def checkpoint(self, sim: Simulation, directory: str) -> dict | None:
