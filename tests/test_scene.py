@@ -2,10 +2,12 @@
 what a scene builds, and scenes that use tsubu.fill, tsubu.insert, tsubu.output and checkpoints."""
 
 import copy
+import inspect
 import json
 import math
 import os
 import pathlib
+import re
 import sys
 
 import numpy as np
@@ -361,7 +363,8 @@ def test_inserters_pour_and_set_the_time_step():
     assert sim.size == 0
     # dt: t_c/50 of a sphere of the inserter's (only) radius, 0.4 mm
     probe = tsubu.Simulation()
-    probe.add_sphere((0, 0, 0), 4e-4, sim.materials[0])
+    probe.add_plane(point=(0, 0, 0), normal=(0, 0, 1), material=sim.materials[0])
+    probe.add_sphere((0, 0, 0.01), 4e-4, sim.materials[0])
     assert sim.dt == probe.default_time_step()
     built.run(progress=False)
     assert sim.size > 0 and np.all(sim.radii == 4e-4)  # the inserter poured spheres
@@ -375,6 +378,31 @@ def test_a_generator_error_is_reported_at_its_block():
     block["solid_fraction"] = 0.9  # beyond random sequential addition
     lines = errors_of(data)
     assert len(lines) == 1 and lines[0].startswith("particles[1]")
+
+
+def needs_run_hooks():
+    if "output" not in inspect.signature(tsubu.Simulation.run).parameters:
+        pytest.skip("Simulation.run(output=...) not in this build")
+
+
+def test_run_writes_the_output_the_scene_asks_for(tmp_path):
+    needs("tsubu.fill", "tsubu.output")
+    pytest.importorskip("pyevtk")
+    needs_run_hooks()
+    data = read("pour.toml")
+    del data["checkpoint"], data["inserters"]
+    built = scene.scene_from_dict(data, SCENES, output_directory=tmp_path)
+    sim = built.run(progress=False)
+    steps = sim.step_count
+    files = set(os.listdir(tmp_path))
+    assert {"particles.pvd", "particles_contacts.pvd", "particles_walls.pvd", "state_frames.csv"} <= files
+    assert {f for f in files if f.endswith(".npz")} == {f"state_{k}.npz" for k in range(0, steps + 1, 200)}
+    every = round(0.002 / sim.dt)
+    assert {f for f in files if re.fullmatch(r"state_\d+\.csv", f)} == {
+        f"state_{k}.csv" for k in range(0, steps + 1, every)}
+    last = np.load(tmp_path / f"state_{steps - steps % 200}.npz")
+    if steps % 200 == 0:
+        assert np.array_equal(last["position"], sim.positions)
 
 
 def test_run_writes_output_and_checkpoints_and_resume_continues_bit_for_bit(tmp_path):
