@@ -901,19 +901,28 @@ class Scene:
         kwargs: dict = {"progress": progress}
         if self.output:
             kwargs["output"] = list(self.output)
-        if self.checkpoint is not None:
-            _attach_metadata(sim, self.metadata())
+        if self.checkpoint is not None and self.checkpoint["every"] is not None:
+            _attach_metadata(sim, self.metadata())  # for the run's periodic checkpoints
             kwargs.update(checkpoint=self.checkpoint["path"], checkpoint_every=self.checkpoint["every"],
                           checkpoint_keep=self.checkpoint["keep"])
-        sim.run(time=remaining, **kwargs)
-        if self.checkpoint is not None and getattr(sim, "metadata", None) != self.metadata():
-            # the run's own final checkpoint did not carry the scene: write it again with it
-            sim.save(self.checkpoint["path"], metadata=self.metadata())
+        try:
+            sim.run(time=remaining, **kwargs)
+        except KeyboardInterrupt:
+            self._save()
+            raise
+        self._save()
         return sim
+
+    def _save(self) -> None:
+        """The checkpoint of the run's end (or of a Ctrl-C), with the scene in its metadata (over
+        the one the run may have written without it)."""
+        if self.checkpoint is not None:
+            self.simulation.save(self.checkpoint["path"], metadata=self.metadata())
 
 
 def _attach_metadata(sim: Simulation, metadata: dict) -> None:
-    """Make the run's own checkpoints (periodic, Ctrl-C) carry the scene's metadata."""
+    """Make the run's own periodic checkpoints carry the scene's metadata, where the Simulation
+    saves its ``metadata`` attribute by default."""
     try:
         sim.metadata = metadata
     except AttributeError:  # pragma: no cover - a Simulation without settable metadata
@@ -1252,7 +1261,11 @@ def resume(checkpoint, *, threads: int | None = None, output_directory=None) -> 
         raise SceneError([("", MISSING, "this checkpoint was not written by a scene run (tsubu run): "
                                         "it has no scene to resume (load it with tsubu.Simulation.load)")],
                          source)
-    if meta["tsubu_scene"] > FORMAT_VERSION:
+    version = meta["tsubu_scene"]
+    if not isinstance(version, int) or not isinstance(meta.get("end_time"), (int, float)):
+        raise SceneError([("", MISSING, "this checkpoint's scene metadata is not tsubu's (tsubu_scene "
+                                        f"= {version!r}, end_time = {meta.get('end_time')!r})")], source)
+    if version > FORMAT_VERSION:
         raise SceneError([("", MISSING, f"this checkpoint's scene has format version {meta['tsubu_scene']}, "
                                         f"newer than this tsubu's ({FORMAT_VERSION}): upgrade tsubu")], source)
     checked = validate(meta["scene"], source)
