@@ -899,6 +899,8 @@ class Scene:
         end = self.end_time if until is None else until
         remaining = max(0.0, end - sim.time)
         kwargs: dict = {"progress": progress}
+        if self.checkpoint is not None:
+            os.makedirs(os.path.dirname(self.checkpoint["path"]), exist_ok=True)
         if self.output:
             kwargs["output"] = list(self.output)
         if self.checkpoint is not None and self.checkpoint["every"] is not None:
