@@ -425,3 +425,10 @@ def test_run_writes_output_and_checkpoints_and_resume_continues_bit_for_bit(tmp_
     assert a.step_count == b.step_count and a.size == b.size
     for name in ("positions", "velocities", "angular_velocities"):
         assert np.array_equal(getattr(a, name), getattr(b, name)), name
+    # the resumed run went on with the same series of frames and the same periodic checkpoints
+    for name in ("particles.pvd", f"state_{a.step_count - a.step_count % 200}.npz"):
+        assert (tmp_path / "half" / name).exists()
+    pvd = {d: (tmp_path / d / "particles.pvd").read_text() for d in ("whole", "half")}
+    assert pvd["half"].replace("/half/", "/whole/") == pvd["whole"]
+    for d in ("whole", "half"):
+        assert len([f for f in os.listdir(tmp_path / d) if f.startswith("checkpoint.step")]) == 2
