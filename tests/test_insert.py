@@ -19,22 +19,6 @@ REGION = fill.Box((-3e-3, -3e-3, 8e-3), (3e-3, 3e-3, 14e-3))
 SIZES = fill.Uniform(0.4e-3, 0.6e-3)
 
 
-def run_with(sim, hooks, steps):
-    """``steps`` steps of ``sim`` with the hooks acting as the run-loop contract says (hooks.py):
-    at the start and after every chunk, each hook whose next_step is now acts; then the run goes
-    on to the earliest next event."""
-    end = sim.step_count + steps
-    while True:
-        for hook in hooks:
-            if hook.next_step(sim) == sim.step_count:
-                hook.act(sim)
-        if sim.step_count >= end:
-            return
-        events = [n for n in (hook.next_step(sim) for hook in hooks) if n is not None]
-        assert all(n > sim.step_count for n in events)
-        sim.run(steps=min([end] + events) - sim.step_count)
-
-
 class Checked:
     """An inserter whose every insertion is checked: the new spheres lie inside the region, carry
     the inserter's velocity and spin, and overlap no sphere (new or old)."""
@@ -61,8 +45,13 @@ class Checked:
         d[np.arange(len(new)), new] = np.inf
         assert np.all(d >= r[new][:, None] + r[None, :])
 
+    def close(self, sim):
+        self.inserter.close(sim)
 
-def pour_scene(threads=None, parallel_min=2048, **inserter_args):
+
+def pour_scene(threads=None, parallel_min=2048, attach=True, **inserter_args):
+    """A box of five walls under an inserter (kept by the Simulation with ``attach``, else to
+    be passed to runs as an output hook)."""
     glass = make_material()
     sim = tsubu.Simulation(gravity=(0, 0, -9.81), threads=threads, parallel_min=parallel_min)
     for point, normal in (((0, 0, 0), (0, 0, 1)), ((-4e-3, 0, 0), (1, 0, 0)), ((4e-3, 0, 0), (-1, 0, 0)),
@@ -71,13 +60,13 @@ def pour_scene(threads=None, parallel_min=2048, **inserter_args):
     args = dict(region=REGION, rate=4000.0, sizes=SIZES, material=glass, velocity=(0, 0, -0.5),
                 angular_velocity=(0, 0, 3.0), seed=1)
     args.update(inserter_args)
-    return sim, tsubu.Inserter(**args)
+    return sim, sim.add_inserter(**args) if attach else tsubu.Inserter(**args)
 
 
 def test_number_rate_over_time():
-    sim, inserter = pour_scene()
+    sim, inserter = pour_scene(attach=False)
     checked = Checked(inserter)
-    run_with(sim, [checked], 20_000)
+    sim.run(steps=20_000, output=checked)
     elapsed = sim.time
     # events at k * interval insert the amount of the interval that begins
     assert checked.events == math.floor(elapsed / inserter.interval) + 1
@@ -88,8 +77,8 @@ def test_number_rate_over_time():
 
 
 def test_mass_rate_over_time():
-    sim, inserter = pour_scene(rate=2e-3, basis="mass", sizes=fill.Normal(0.5e-3, 0.05e-3))
-    run_with(sim, [Checked(inserter)], 20_000)
+    sim, inserter = pour_scene(rate=2e-3, basis="mass", sizes=fill.Normal(0.5e-3, 0.05e-3), attach=False)
+    sim.run(steps=20_000, output=[Checked(inserter)])
     largest = 2500.0 * 4 / 3 * math.pi * (0.65e-3) ** 3
     due = 2e-3 * (math.floor(sim.time / inserter.interval) + 1) * inserter.interval
     assert abs(inserter.inserted_mass - due) <= 0.5 * largest
@@ -112,15 +101,16 @@ def test_default_interval_crosses_the_region():
     sim, inserter = pour_scene(velocity=(0, 0, 0))
     sim.gravity = (0, 0, 0)
     with pytest.raises(ValueError, match="give interval="):
-        inserter.next_step(sim)
+        sim.run(steps=1)
 
 
-def final_state(threads=None, seed=1, steps=4_000):
-    # low enough that the spheres reach the floor and each other within the run
-    low = fill.Box((-3e-3, -3e-3, 0.5e-3), (3e-3, 3e-3, 4.5e-3))
-    sim, inserter = pour_scene(threads=threads, parallel_min=0, seed=seed, region=low, rate=10_000.0,
-                               interval=0.5e-3)
-    run_with(sim, [inserter], steps)
+def final_state(threads=None, seed=1, pieces=(2_000,)):
+    # low and fast enough that the spheres reach the floor and each other within the run
+    low = fill.Box((-3e-3, -3e-3, 0.45e-3), (3e-3, 3e-3, 2.5e-3))
+    sim, inserter = pour_scene(threads=threads, parallel_min=0, seed=seed, region=low, rate=20_000.0,
+                               interval=0.25e-3, velocity=(0, 0, -1.0))
+    for steps in pieces:
+        sim.run(steps=steps)
     return sim, inserter
 
 
@@ -132,21 +122,23 @@ def test_same_seed_same_pour_any_thread_count():
     assert np.array_equal(one.positions, two.positions)
     assert np.array_equal(one.velocities, two.velocities)
     assert np.array_equal(one.radii, two.radii)
+    cut, _ = final_state(threads=1, pieces=(634, 1, 1_365))  # runs cut anywhere: the same
+    assert np.array_equal(one.positions, cut.positions)
     other, _ = final_state(threads=1, seed=2)
     assert not np.array_equal(other.radii[:10], one.radii[:10])
 
 
 def test_total_and_stop_end_it():
     sim, inserter = pour_scene(total=30)
-    run_with(sim, [inserter], 2_000)
+    sim.run(steps=2_000)
     assert inserter.inserted == 30 == sim.size and inserter.finished
     assert inserter.next_step(sim) is None
     sim, inserter = pour_scene(rate=6000.0, stop=0.005, interval=1e-3)
-    run_with(sim, [inserter], 6_000)
+    sim.run(steps=6_000)
     assert sim.time > 0.006 and inserter.finished and inserter.next_step(sim) is None
     assert inserter.inserted == 30
     sim, inserter = pour_scene(rate=1e-2, basis="mass", total=2e-5, interval=1e-3)
-    run_with(sim, [inserter], 6_000)
+    sim.run(steps=6_000)
     assert inserter.finished
     assert abs(inserter.inserted_mass - 2e-5) <= 0.5 * 2500.0 * 4 / 3 * math.pi * (0.6e-3) ** 3
 
@@ -155,14 +147,14 @@ def test_what_does_not_fit_is_carried_over():
     glass = make_material()
     sim = tsubu.Simulation(gravity=(0, 0, 0))
     small = fill.Box((0, 0, 0), (2.5e-3, 2.5e-3, 2.5e-3))  # room for a few spheres only
-    inserter = tsubu.Inserter(small, rate=20_000.0, sizes=SIZES, material=glass, interval=1e-3, seed=3)
-    run_with(sim, [inserter], 1)
+    inserter = sim.add_inserter(small, rate=20_000.0, sizes=SIZES, material=glass, interval=1e-3, seed=3)
+    sim.run(steps=1)
     first = sim.size
     assert 0 < first < 20 and inserter.pending == 20 - first
     waiting = inserter._queue[:inserter.pending].copy()
     sim.positions = sim.positions + np.array([1.0, 0, 0])  # clear the region
     steps = inserter.next_step(sim) - sim.step_count
-    run_with(sim, [inserter], steps + 1)
+    sim.run(steps=steps + 1)
     placed = sim.radii[first:]
     assert 0 < len(placed) < len(waiting)  # the region holds fewer than waited
     # the spheres that waited go first (largest first), and those still waiting stay first in line
@@ -174,9 +166,9 @@ def test_what_does_not_fit_is_carried_over():
 
 def test_state_round_trip_gives_the_same_future():
     sim_a, inserter_a = pour_scene(sizes=fill.LogNormal(0.5e-3, 0.1), interval=2e-3)
-    sim_b, inserter_b = pour_scene(sizes=fill.LogNormal(0.5e-3, 0.1), interval=2e-3)
-    run_with(sim_a, [inserter_a], 6_000)
-    run_with(sim_b, [inserter_b], 6_000)
+    sim_b, inserter_b = pour_scene(sizes=fill.LogNormal(0.5e-3, 0.1), interval=2e-3, attach=False)
+    sim_a.run(steps=6_000)
+    sim_b.run(steps=6_000, output=inserter_b)
     assert inserter_a.inserted > 0
     config = json.loads(json.dumps(inserter_a._config(sim_a)))
     state = json.loads(json.dumps(inserter_a._state()))
@@ -184,8 +176,8 @@ def test_state_round_trip_gives_the_same_future():
     restored = tsubu.Inserter._from_config(config, sim_b)
     restored._restore(state)
     assert restored._state() == inserter_a._state()
-    run_with(sim_a, [inserter_a], 8_000)
-    run_with(sim_b, [restored], 8_000)
+    sim_a.run(steps=8_000)
+    sim_b.run(steps=8_000, output=restored)
     assert restored.inserted == inserter_a.inserted > state["inserted"]
     assert np.array_equal(sim_a.positions, sim_b.positions)
     assert np.array_equal(sim_a.radii, sim_b.radii)
@@ -213,9 +205,13 @@ def test_config_names_the_material_by_index():
     (dict(sizes=4e-3), ValueError, "do not fit in the region"),
     (dict(velocity=(0, 0)), ValueError, "velocity must have 3 components"),
     (dict(region=(0, 0, 0)), TypeError, "region must be a tsubu.fill region"),
+    (dict(material=tsubu.Material(youngs_modulus=1e9)), ValueError, "one contact law"),
 ])
 def test_inserter_refuses_bad_input(args, error, match):
     full = dict(region=REGION, rate=100.0, sizes=SIZES, material=make_material())
     full.update(args)
+    sim = tsubu.Simulation()
+    sim.add_plane(material=make_material())  # a linear scene
     with pytest.raises(error, match=match):
-        tsubu.Inserter(**full)
+        sim.add_inserter(**full)
+    assert sim.inserters == []

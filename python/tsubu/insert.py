@@ -266,6 +266,11 @@ class Inserter:
         positions[order], placed[order] = x, ok
         return positions, placed
 
+    def _attach(self, sim) -> None:
+        """Called by :meth:`Simulation.add_inserter`: the material joins the scene now, so a
+        material of the other contact law is refused at once, not at the first event."""
+        sim._material(self.material, "material", scene=True)
+
     # ---- checkpoints -------------------------------------------------------------------------------
     def _config(self, sim) -> dict:
         """The constructor's arguments as JSON-able values (the material as its index in
