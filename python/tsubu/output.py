@@ -1,0 +1,666 @@
+"""Output of a Simulation's state: VTK XML files for ParaView, and CSV / npz dumps for scripts.
+
+Hooks for ``Simulation.run(..., output=...)`` (the run-loop contract, ``tsubu.hooks``), each
+writing a frame every ``every`` steps:
+
+- :class:`VTKOutput`: particles (``.vtu``), the contact network (``.vtp``, one line per
+  contact) and the walls (``.vtp``, one rectangle per plane), each with a ``.pvd`` time series
+  that ParaView opens as one animated data set;
+- :class:`NpzOutput`, :class:`CSVOutput`: the same particle (and contact) arrays as numpy
+  ``.npz`` archives or CSV tables.
+
+And one frame at a time: :func:`write_vtk`, :func:`save_npz`, :func:`save_csv`. The arrays
+themselves, as dicts of numpy arrays, come from :func:`particle_data`, :func:`contact_data`
+and :func:`wall_data`. ``docs/output.md`` describes every file and array.
+
+The VTK files are written with pyevtk (an optional dependency: ``pip install 'tsubu[vtk]'``);
+the CSV and npz dumps need only numpy.
+"""
+
+from __future__ import annotations
+
+import csv
+import math
+import os
+import re
+import tempfile
+import xml.etree.ElementTree as ET
+
+import numpy as np
+
+__all__ = [
+    "VTKOutput", "NpzOutput", "CSVOutput", "write_vtk", "save_npz", "save_csv",
+    "particle_data", "contact_data", "wall_data", "scene_extent",
+]
+
+_INSTALL_HINT = "install it with: pip install 'tsubu[vtk]'"
+
+
+def _pyevtk_vtk():
+    """pyevtk's low-level writer module, or ImportError saying how to install it."""
+    try:
+        from pyevtk import vtk
+    except ImportError as e:
+        raise ImportError(f"tsubu's VTK output needs the package pyevtk: {_INSTALL_HINT}") from e
+    return vtk
+
+
+# ---- the arrays --------------------------------------------------------------------------------
+
+def _coordination(size: int, contacts: dict) -> np.ndarray:
+    """Contacts per sphere: a pair counts for both spheres, a wall contact for its sphere."""
+    i, j = contacts["i"], contacts["j"]
+    return (np.bincount(i, minlength=size) + np.bincount(j[j >= 0], minlength=size)).astype(np.int64)
+
+
+def particle_data(sim, contacts: dict | None = None) -> dict:
+    """The per-sphere arrays that the writers store, in id order (row k = sphere id k).
+
+    Keys: ``id`` (N,) int64; ``position`` [m], ``velocity`` [m/s], ``angular_velocity``
+    [rad/s], ``force`` [N] and ``torque`` [N m] of the last step, each (N, 3) float64;
+    ``radius`` [m] and ``mass`` [kg] (N,) float64; ``material`` (N,) int64, the index into
+    ``sim.materials``; ``coordination`` (N,) int64, the number of contacts of each sphere in
+    ``sim.contacts()`` (a pair counts for both spheres, a wall contact for its sphere).
+    ``contacts``: the dict of ``sim.contacts()`` when already at hand.
+    """
+    contacts = sim.contacts() if contacts is None else contacts
+    n = sim.size
+    return {
+        "id": np.arange(n, dtype=np.int64),
+        "position": sim.positions,
+        "velocity": sim.velocities,
+        "angular_velocity": sim.angular_velocities,
+        "radius": sim.radii,
+        "mass": sim.masses,
+        "material": sim.material_ids,
+        "force": sim.forces,
+        "torque": sim.torques,
+        "coordination": _coordination(n, contacts),
+    }
+
+
+def contact_data(sim, contacts: dict | None = None, positions=None) -> dict:
+    """The contact network: one row per touching contact of ``sim.contacts()``, in its order.
+
+    Keys: ``i``, ``j`` (-1 for a wall), ``wall`` (-1 for a pair) (M,) int64; ``overlap`` [m]
+    (M,); ``start``, ``end`` [m] (M, 3): the centre of sphere i and that of sphere j, or for a
+    wall contact the point of the plane nearest the centre of i; ``normal`` (M, 3): the unit
+    vector from ``start`` to ``end`` (the centre-to-centre direction; a rough contact's tilted
+    normal is not shown separately); ``force`` [N] (M, 3): the contact's force on sphere i;
+    ``normal_force`` [N] (M,): -F.n, positive when the contact pushes the spheres apart;
+    ``normal_force_vector`` [N] (M, 3): (F.n) n; ``tangential_force`` [N] (M, 3):
+    F - (F.n) n.
+
+    The forces are those of the last force evaluation (the start of the last step, see
+    ``Simulation.contacts``); ``start``, ``end`` and ``normal`` use the current positions
+    (``positions``, when given, instead of ``sim.positions``) and planes.
+    """
+    contacts = sim.contacts() if contacts is None else contacts
+    x = sim.positions if positions is None else positions
+    i = np.asarray(contacts["i"], dtype=np.int64)
+    j = np.asarray(contacts["j"], dtype=np.int64)
+    wall = np.asarray(contacts["wall"], dtype=np.int64)
+    force = np.asarray(contacts["force"], dtype=np.float64).reshape(-1, 3)
+    start = x[i]
+    end = x[np.maximum(j, 0)]
+    walls = np.flatnonzero(j < 0)
+    if walls.size:
+        planes = [sim.plane(k) for k in range(sim._core.plane_count)]
+        point = np.array([p["point"] for p in planes])[wall[walls]]
+        normal = np.array([p["normal"] for p in planes])[wall[walls]]
+        height = np.einsum("ij,ij->i", start[walls] - point, normal)
+        end[walls] = start[walls] - height[:, None] * normal
+    gap = end - start
+    length = np.sqrt(np.einsum("ij,ij->i", gap, gap))
+    # Two centres at one point have no direction: their normal is left zero, never NaN.
+    with np.errstate(invalid="ignore", divide="ignore"):
+        n = np.where(length[:, None] > 0, gap / length[:, None], 0.0)
+    f_dot_n = np.einsum("ij,ij->i", force, n)
+    normal_vector = f_dot_n[:, None] * n
+    return {
+        "i": i, "j": j, "wall": wall,
+        "overlap": np.asarray(contacts["overlap"], dtype=np.float64),
+        "start": start, "end": end, "normal": n, "force": force,
+        "normal_force": -f_dot_n,
+        "normal_force_vector": normal_vector,
+        "tangential_force": force - normal_vector,
+    }
+
+
+def scene_extent(sim, margin: float | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """The box (lower, upper) [m] that the wall rectangles cover: the spheres' bounding box
+    (centres +- the largest radius) joined with the planes' points, widened on every side by
+    ``margin`` [m] (default: a tenth of the box's largest side, at least 2 largest radii; 1 m
+    for an empty scene)."""
+    points = [np.array(sim.plane(k)["point"]) for k in range(sim._core.plane_count)]
+    lower = np.full(3, np.inf)
+    upper = np.full(3, -np.inf)
+    r_max = 0.0
+    if sim.size:
+        x = sim.positions
+        r_max = float(sim.radii.max())
+        lower = np.minimum(lower, x.min(axis=0) - r_max)
+        upper = np.maximum(upper, x.max(axis=0) + r_max)
+    for p in points:
+        lower = np.minimum(lower, p)
+        upper = np.maximum(upper, p)
+    if not np.all(np.isfinite(lower)):
+        lower, upper = np.zeros(3), np.zeros(3)
+    if margin is None:
+        margin = max(0.1 * float(np.max(upper - lower)), 2.0 * r_max)
+        if margin == 0.0:
+            margin = 1.0
+    margin = float(margin)
+    if not (math.isfinite(margin) and margin >= 0):
+        raise ValueError(f"margin must be a finite number >= 0, got {margin!r}")
+    return lower - margin, upper + margin
+
+
+def _check_extent(extent) -> tuple[np.ndarray, np.ndarray]:
+    try:
+        lower, upper = (np.asarray(e, dtype=np.float64) for e in extent)
+    except (TypeError, ValueError):
+        raise TypeError(f"extent must be (lower, upper), two 3-vectors [m], got {extent!r}") from None
+    if lower.shape != (3,) or upper.shape != (3,) or not (np.all(np.isfinite(lower))
+                                                          and np.all(np.isfinite(upper))):
+        raise ValueError(f"extent must be (lower, upper), two finite 3-vectors [m], got {extent!r}")
+    if not np.all(lower <= upper):
+        raise ValueError(f"extent: lower must be <= upper in x, y and z, got {extent!r}")
+    return lower, upper
+
+
+def _plane_axes(normal: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Two unit vectors u, v in the plane with (u, v, n) right-handed, u as close to a
+    coordinate axis as the normal allows (a floor's rectangle has x and y edges)."""
+    axis = np.zeros(3)
+    axis[int(np.argmin(np.abs(normal)))] = 1.0
+    u = axis - (axis @ normal) * normal
+    u /= np.sqrt(u @ u)
+    return u, np.cross(normal, u)
+
+
+def wall_data(sim, extent=None) -> dict:
+    """Each plane wall as a rectangle in its own plane: the smallest rectangle, with edges along
+    the plane axes u, v (``_plane_axes``), that covers the orthogonal projection of the box
+    ``extent`` = (lower, upper) [m] (default :func:`scene_extent`), so that every sphere's
+    projection onto the wall lies inside it.
+
+    Keys: ``corners`` [m] (W, 4, 3), counter-clockwise seen from the side the normal points to;
+    ``wall`` (W,) int64; ``material`` (W,) int64 (index into ``sim.materials``); ``point`` [m],
+    ``normal``, ``velocity`` [m/s], ``angular_velocity`` [rad/s] (W, 3): the plane's state;
+    ``corner_velocity`` [m/s] (W, 4, 3): the wall's velocity at each corner, v + w x (c - point).
+    """
+    lower, upper = scene_extent(sim) if extent is None else _check_extent(extent)
+    count = sim._core.plane_count
+    box = np.array([[(lower, upper)[a][0], (lower, upper)[b][1], (lower, upper)[c][2]]
+                    for a in (0, 1) for b in (0, 1) for c in (0, 1)])
+    materials = sim.materials
+    data = {k: np.zeros((count, 3)) for k in ("point", "normal", "velocity", "angular_velocity")}
+    data["corners"] = np.zeros((count, 4, 3))
+    data["corner_velocity"] = np.zeros((count, 4, 3))
+    data["wall"] = np.arange(count, dtype=np.int64)
+    data["material"] = np.zeros(count, dtype=np.int64)
+    for k in range(count):
+        plane = sim.plane(k)
+        p, n = plane["point"], plane["normal"]
+        u, v = _plane_axes(n)
+        a, b = (box - p) @ u, (box - p) @ v
+        corners = np.array([p + a.min() * u + b.min() * v, p + a.max() * u + b.min() * v,
+                            p + a.max() * u + b.max() * v, p + a.min() * u + b.max() * v])
+        data["corners"][k] = corners
+        data["corner_velocity"][k] = plane["velocity"] + np.cross(plane["angular_velocity"], corners - p)
+        for key in ("point", "normal", "velocity", "angular_velocity"):
+            data[key][k] = plane[key]
+        data["material"][k] = next(m for m, mat in enumerate(materials) if mat is plane["material"])
+    return data
+
+
+# ---- VTK XML files (pyevtk) ----------------------------------------------------------------------
+
+class _VTKWriter:
+    """One VTK XML file with its arrays in pyevtk's raw appended binary section.
+
+    pyevtk writes the XML (elements, array headers and their offsets, byte order, UInt64 block
+    sizes); the blocks themselves are written here with numpy's ``tobytes``: pyevtk packs 3-vector
+    blocks one value at a time in Python (0.4 s for 1e5 spheres' two vectors), numpy writes the
+    same bytes (C order of an (n, 3) array = x0 y0 z0 x1 ...) at memory speed."""
+
+    def __init__(self, vtk, path_without_extension: str, kind):
+        self.vtk = vtk
+        self.file = vtk.VtkFile(path_without_extension, kind)
+        self.blocks: list[np.ndarray] = []
+
+    def header(self, name: str, array: np.ndarray) -> None:
+        array = np.ascontiguousarray(array)
+        components = 1 if array.ndim == 1 else array.shape[1]
+        self.file.addHeader(name, array.dtype.name, array.shape[0], components)
+        self.blocks.append(array)
+
+    def section(self, element: str, arrays: dict) -> None:
+        if not arrays:
+            return
+        self.file.openElement(element)
+        for name, array in arrays.items():
+            self.header(name, array)
+        self.file.closeElement(element)
+
+    def save(self) -> None:
+        from pyevtk.evtk import writeBlockSize
+
+        self.file.openAppendedData()
+        stream = self.file.xml.stream
+        for block in self.blocks:
+            writeBlockSize(stream, block.nbytes)
+            stream.write(block.tobytes())
+        self.file.save()
+
+
+def _write_atomically(final_path: str, write) -> None:
+    """``write(path_without_extension)`` writes a file there (pyevtk adds the extension); it is
+    moved over ``final_path`` only once complete and on disk, so that a reader (or a run killed
+    meanwhile) never sees half a file."""
+    directory, base = os.path.split(final_path)
+    stem, extension = os.path.splitext(base)
+    fd, tmp = tempfile.mkstemp(prefix=f".{stem}.", suffix=extension, dir=directory or ".")
+    os.close(fd)
+    try:
+        write(tmp[: -len(extension)])
+        _fsync(tmp)
+        os.replace(tmp, final_path)
+    except BaseException:
+        if os.path.exists(tmp):
+            os.remove(tmp)
+        raise
+
+
+def _fsync(path: str) -> None:
+    fd = os.open(path, os.O_RDONLY)
+    try:
+        os.fsync(fd)
+    finally:
+        os.close(fd)
+
+
+def _field_data(sim) -> dict:
+    # ParaView shows TimeValue as the data set's time when a file is opened on its own.
+    return {"TimeValue": np.array([sim.time], dtype=np.float64),
+            "step": np.array([sim.step_count], dtype=np.int64)}
+
+
+def _write_particles(vtk, path: str, sim, particles: dict) -> None:
+    n = particles["id"].shape[0]
+    w = _VTKWriter(vtk, path, vtk.VtkUnstructuredGrid)
+    w.file.openGrid()
+    w.section("FieldData", _field_data(sim))  # the data set's, beside its pieces
+    w.file.openPiece(npoints=str(n), ncells=str(n))  # strings: pyevtk drops a count of 0
+    w.section("Points", {"points": particles["position"]})
+    w.section("Cells", {"connectivity": np.arange(n, dtype=np.int64),
+                        "offsets": np.arange(1, n + 1, dtype=np.int64),
+                        "types": np.full(n, vtk.VtkVertex.tid, dtype=np.uint8)})
+    w.file.openData("Point", scalars="radius", vectors="velocity")
+    for key in ("id", "velocity", "angular_velocity", "radius", "mass", "material", "force",
+                "torque", "coordination"):
+        w.header(key, particles[key])
+    w.file.closeData("Point")
+    w.file.closePiece()
+    w.file.closeGrid()
+    w.save()
+
+
+def _write_contacts(vtk, path: str, sim, network: dict) -> None:
+    m = network["i"].shape[0]
+    w = _VTKWriter(vtk, path, vtk.VtkPolyData)
+    w.file.openGrid()
+    w.section("FieldData", _field_data(sim))  # the data set's, beside its pieces
+    w.file.openPiece(npoints=str(2 * m), nlines=str(m))
+    w.section("Points", {"points": np.stack([network["start"], network["end"]], axis=1).reshape(-1, 3)})
+    w.section("Lines", {"connectivity": np.arange(2 * m, dtype=np.int64),
+                        "offsets": np.arange(2, 2 * m + 1, 2, dtype=np.int64)})
+    w.file.openData("Cell", scalars="normal_force", vectors="force")
+    for key in ("normal_force", "normal_force_vector", "tangential_force", "force", "overlap",
+                "normal", "i", "j", "wall"):
+        w.header(key, network[key])
+    w.file.closeData("Cell")
+    w.file.closePiece()
+    w.file.closeGrid()
+    w.save()
+
+
+def _write_walls(vtk, path: str, sim, walls: dict) -> None:
+    count = walls["wall"].shape[0]
+    w = _VTKWriter(vtk, path, vtk.VtkPolyData)
+    w.file.openGrid()
+    w.section("FieldData", _field_data(sim))  # the data set's, beside its pieces
+    w.file.openPiece(npoints=str(4 * count), npolys=str(count))
+    w.section("Points", {"points": walls["corners"].reshape(-1, 3)})
+    w.section("Polys", {"connectivity": np.arange(4 * count, dtype=np.int64),
+                        "offsets": np.arange(4, 4 * count + 1, 4, dtype=np.int64)})
+    w.section("PointData", {"velocity": walls["corner_velocity"].reshape(-1, 3)})
+    w.file.openData("Cell", scalars="wall", vectors="normal")
+    for key in ("wall", "material", "normal", "point", "velocity", "angular_velocity"):
+        w.header(key, walls[key])
+    w.file.closeData("Cell")
+    w.file.closePiece()
+    w.file.closeGrid()
+    w.save()
+
+
+def write_vtk(sim, directory, name: str = "particles", contacts: bool = True, walls: bool = True,
+              extent=None) -> dict:
+    """Write the Simulation's current state as VTK XML files (one frame), for ParaView.
+
+    Files, in ``directory`` (created if missing), with ``step`` = ``sim.step_count``:
+    ``<name>_<step>.vtu`` (the spheres as points, with the arrays of :func:`particle_data` as
+    point data), ``<name>_contacts_<step>.vtp`` (one line per contact, the arrays of
+    :func:`contact_data` as cell data) if ``contacts``, ``<name>_walls_<step>.vtp`` (one
+    rectangle per plane, :func:`wall_data`, clipped to ``extent`` = (lower, upper) [m], default
+    :func:`scene_extent`) if ``walls``. Every file carries the field data ``TimeValue`` (the
+    simulated time [s]) and ``step``. Each file is written under a temporary name and renamed
+    when complete.
+
+    Returns a dict: the path of each file written, under ``"particles"``, ``"contacts"``,
+    ``"walls"``. Raises ImportError when pyevtk is not installed (``pip install 'tsubu[vtk]'``).
+    """
+    vtk = _pyevtk_vtk()
+    name = _check_name(name)
+    if extent is not None:
+        extent = _check_extent(extent)
+    directory = os.fspath(directory)
+    os.makedirs(directory, exist_ok=True)
+    step = sim.step_count
+    raw_contacts = sim.contacts()
+    particles = particle_data(sim, raw_contacts)
+    written = {"particles": os.path.join(directory, f"{name}_{step}.vtu")}
+    _write_atomically(written["particles"], lambda p: _write_particles(vtk, p, sim, particles))
+    if contacts:
+        network = contact_data(sim, raw_contacts, particles["position"])
+        written["contacts"] = os.path.join(directory, f"{name}_contacts_{step}.vtp")
+        _write_atomically(written["contacts"], lambda p: _write_contacts(vtk, p, sim, network))
+    if walls:
+        wall_arrays = wall_data(sim, extent)
+        written["walls"] = os.path.join(directory, f"{name}_walls_{step}.vtp")
+        _write_atomically(written["walls"], lambda p: _write_walls(vtk, p, sim, wall_arrays))
+    return written
+
+
+def _check_name(name) -> str:
+    if not isinstance(name, str) or not re.fullmatch(r"[A-Za-z0-9][A-Za-z0-9_.-]*", name):
+        raise ValueError("name must be a file-name stem of letters, digits, '_', '.' and '-' "
+                         f"(starting with a letter or digit), got {name!r}")
+    return name
+
+
+def _check_every(every) -> int:
+    if isinstance(every, bool) or not isinstance(every, (int, np.integer)):
+        raise TypeError(f"every must be a whole number of steps, got {every!r}")
+    if every < 1:
+        raise ValueError(f"every must be >= 1 (steps between frames), got {every!r}")
+    return int(every)
+
+
+# ---- .pvd collections ----------------------------------------------------------------------------
+
+class _Series:
+    """A time series of files listed in a .pvd collection (or a CSV index), rewritten atomically
+    after each frame. Frames are kept by step; writing step s drops the frames listed at s and
+    after (a run that went back, e.g. resumed from a checkpoint, replaces its old future)."""
+
+    def __init__(self, directory: str, index_name: str, pattern: str):
+        self.path = os.path.join(directory, index_name)
+        self.pattern = re.compile(pattern)
+        self.frames: dict[int, tuple[float, str]] | None = None  # step -> (time, file name)
+
+    def _load(self) -> dict:
+        """The frames an existing index lists (a resumed run continues its series)."""
+        frames: dict[int, tuple[float, str]] = {}
+        if not os.path.exists(self.path):
+            return frames
+        try:
+            for step, time, file in self._read():
+                frames[step] = (time, file)
+        except (ET.ParseError, ValueError, KeyError, OSError):
+            return {}  # not one of ours: replaced by the new series
+        return frames
+
+    def _read(self):
+        for entry in ET.parse(self.path).getroot().iter("DataSet"):
+            file = entry.attrib["file"]
+            match = self.pattern.fullmatch(file)
+            if match:
+                yield int(match.group(1)), float(entry.attrib["timestep"]), file
+
+    def add(self, step: int, time: float, file: str) -> None:
+        if self.frames is None:
+            self.frames = self._load()
+        self.frames = {s: f for s, f in self.frames.items() if s < step}
+        self.frames[step] = (time, file)
+        _write_atomically(self.path, lambda stem: self._write(stem + os.path.splitext(self.path)[1]))
+
+    def _write(self, path: str) -> None:
+        vtk = _pyevtk_vtk()
+        group = vtk.VtkGroup(path[: -len(".pvd")])
+        for step in sorted(self.frames):
+            time, file = self.frames[step]
+            group.addFile(os.path.join(os.path.dirname(self.path), file), sim_time=repr(time))
+        group.save()
+
+
+class _CSVSeries(_Series):
+    """The frames of a CSV series: ``step,time,file`` rows."""
+
+    def _read(self):
+        with open(self.path, newline="") as f:
+            rows = csv.DictReader(f)
+            for row in rows:
+                if self.pattern.fullmatch(row["file"]):
+                    yield int(row["step"]), float(row["time"]), row["file"]
+
+    def _write(self, path: str) -> None:
+        with open(path, "w", newline="") as f:
+            f.write("step,time,file\n")
+            for step in sorted(self.frames):
+                time, file = self.frames[step]
+                f.write(f"{step},{time!r},{file}\n")
+
+
+# ---- hooks ---------------------------------------------------------------------------------------
+
+class _EveryK:
+    """The run-loop contract for a hook that writes every ``every`` steps: the next multiple of
+    ``every`` at or after the current step, but never the step it wrote last (two consecutive
+    runs share their boundary step)."""
+
+    def __init__(self, every):
+        self.every = _check_every(every)
+        self.last_step: int | None = None
+
+    def next_step(self, sim) -> int:
+        """The step at which :meth:`act` is next due (run-loop contract)."""
+        step = sim.step_count
+        due = -(-step // self.every) * self.every
+        if due == step and step == self.last_step:
+            due += self.every
+        return due
+
+    def act(self, sim) -> None:
+        """Write the frame of the current step (run-loop contract)."""
+        self._write(sim)
+        self.last_step = sim.step_count
+
+    def close(self, sim) -> None:
+        """Nothing to flush: every frame, and its index, is complete on disk when act returns."""
+
+
+class VTKOutput(_EveryK):
+    """A hook for ``sim.run(..., output=...)`` that writes VTK XML files for ParaView every
+    ``every`` steps (at steps 0, every, 2 every, ...; a step is never written twice).
+
+    Parameters
+    ----------
+    directory : str or path
+        Where the files go (created if missing).
+    every : int
+        Steps between frames (>= 1).
+    name : str
+        File-name stem. Default ``"particles"``.
+    contacts, walls : bool
+        Also write the contact network and the walls. Default True.
+    extent : (lower, upper) 3-vectors [m] or None
+        The box the wall rectangles cover; None: :func:`scene_extent` of each frame.
+
+    Each frame writes the files of :func:`write_vtk`; after it the collections
+    ``<name>.pvd``, ``<name>_contacts.pvd``, ``<name>_walls.pvd`` (the frames' simulated times
+    and files: open these in ParaView) are rewritten under a temporary name, flushed to disk and
+    renamed, so that a run killed at any moment leaves valid ones. When a collection already
+    exists (a run resumed from a checkpoint into the same directory), the frames it lists before
+    the first step written are kept and those from that step on are replaced.
+
+    Raises ImportError when pyevtk is not installed (``pip install 'tsubu[vtk]'``), at
+    construction; TypeError / ValueError for a bad ``every``, ``name`` or ``extent``.
+    """
+
+    def __init__(self, directory, every: int, name: str = "particles", contacts: bool = True,
+                 walls: bool = True, extent=None):
+        _pyevtk_vtk()
+        super().__init__(every)
+        self.directory = os.fspath(directory)
+        self.name = _check_name(name)
+        self.contacts = bool(contacts)
+        self.walls = bool(walls)
+        self.extent = None if extent is None else _check_extent(extent)
+        esc = re.escape(self.name)
+        self._series = {"particles": _Series(self.directory, f"{self.name}.pvd", rf"{esc}_(\d+)\.vtu")}
+        if self.contacts:
+            self._series["contacts"] = _Series(self.directory, f"{self.name}_contacts.pvd",
+                                               rf"{esc}_contacts_(\d+)\.vtp")
+        if self.walls:
+            self._series["walls"] = _Series(self.directory, f"{self.name}_walls.pvd",
+                                            rf"{esc}_walls_(\d+)\.vtp")
+
+    def _write(self, sim) -> None:
+        written = write_vtk(sim, self.directory, self.name, self.contacts, self.walls, self.extent)
+        for kind, path in written.items():
+            self._series[kind].add(sim.step_count, sim.time, os.path.basename(path))
+
+
+# ---- npz and CSV ---------------------------------------------------------------------------------
+
+def save_npz(sim, path) -> str:
+    """Write the Simulation's current state to one ``.npz`` archive (``numpy.load`` reads it,
+    no pickle needed) and return its path.
+
+    Arrays: ``step`` and ``time`` [s] (0-d); ``material_names`` (str, one per entry of
+    ``sim.materials``, "" when unnamed); the per-sphere arrays of :func:`particle_data`
+    (``id``, ``position``, ...); the contacts as ``contact_<key>`` for each key of
+    :func:`contact_data` (``contact_i``, ``contact_force``, ...). Written under a temporary name
+    and renamed when complete.
+    """
+    path = os.fspath(path)
+    raw = sim.contacts()
+    particles = particle_data(sim, raw)
+    arrays = {"step": np.array(sim.step_count, dtype=np.int64),
+              "time": np.array(sim.time, dtype=np.float64),
+              "material_names": np.array([m.name or "" for m in sim.materials], dtype=str)}
+    arrays.update(particles)
+    arrays.update({f"contact_{k}": v for k, v in contact_data(sim, raw, particles["position"]).items()})
+    if os.path.dirname(path):
+        os.makedirs(os.path.dirname(path), exist_ok=True)
+
+    def write(stem):
+        with open(stem + os.path.splitext(path)[1], "wb") as f:
+            np.savez(f, **arrays)
+
+    _write_atomically(path, write)
+    return path
+
+
+# Column names of the CSV tables: a vector ``force`` is three columns ``force_x, force_y, force_z``.
+_CSV_PARTICLES = ("id", "position", "velocity", "angular_velocity", "radius", "mass", "material",
+                  "force", "torque", "coordination")
+_CSV_CONTACTS = ("i", "j", "wall", "overlap", "normal_force", "force", "normal_force_vector",
+                 "tangential_force", "normal", "start", "end")
+
+
+def _write_table(path: str, arrays: dict, keys) -> None:
+    header, columns = [], []
+    for key in keys:
+        a = arrays[key]
+        if a.ndim == 1:
+            header.append(key)
+            columns.append(a.tolist())
+        else:
+            for c, axis in enumerate("xyz"):
+                header.append(f"{key}_{axis}")
+                columns.append(a[:, c].tolist())
+
+    def write(stem):
+        with open(stem + os.path.splitext(path)[1], "w", newline="") as f:
+            f.write(",".join(header) + "\n")
+            # repr: the shortest text that reads back as the same double (ints as ints)
+            f.writelines(",".join(map(repr, row)) + "\n" for row in zip(*columns))
+
+    _write_atomically(path, write)
+
+
+def save_csv(sim, path, contacts_path=None) -> str:
+    """Write the spheres' current state as a CSV table (one row per sphere, in id order, a
+    header row of column names) and return its path; with ``contacts_path``, also the contact
+    network as a second table there.
+
+    Columns: ``id``, ``position_x``, ``position_y``, ``position_z``, ``velocity_*``,
+    ``angular_velocity_*``, ``radius``, ``mass``, ``material``, ``force_*``, ``torque_*``,
+    ``coordination`` (units and meaning as :func:`particle_data`); the contact table: ``i``,
+    ``j``, ``wall``, ``overlap``, ``normal_force``, ``force_*``, ``normal_force_vector_*``,
+    ``tangential_force_*``, ``normal_*``, ``start_*``, ``end_*`` (:func:`contact_data`).
+    Floats are written at repr precision (the shortest decimal that reads back as the same
+    double), so ``numpy.loadtxt(path, delimiter=",", skiprows=1)`` gives the arrays bit for
+    bit. The step and time are not in the table (:class:`CSVOutput` lists them in its index).
+    """
+    path = os.fspath(path)
+    raw = sim.contacts()
+    particles = particle_data(sim, raw)
+    if os.path.dirname(path):
+        os.makedirs(os.path.dirname(path), exist_ok=True)
+    _write_table(path, particles, _CSV_PARTICLES)
+    if contacts_path is not None:
+        _write_table(os.fspath(contacts_path), contact_data(sim, raw, particles["position"]),
+                     _CSV_CONTACTS)
+    return path
+
+
+class NpzOutput(_EveryK):
+    """A hook for ``sim.run(..., output=...)`` that writes :func:`save_npz` archives
+    ``<directory>/<name>_<step>.npz`` every ``every`` steps (a step is never written twice).
+    TypeError / ValueError for a bad ``every`` or ``name``."""
+
+    def __init__(self, directory, every: int, name: str = "state"):
+        super().__init__(every)
+        self.directory = os.fspath(directory)
+        self.name = _check_name(name)
+
+    def _write(self, sim) -> None:
+        save_npz(sim, os.path.join(self.directory, f"{self.name}_{sim.step_count}.npz"))
+
+
+class CSVOutput(_EveryK):
+    """A hook for ``sim.run(..., output=...)`` that writes :func:`save_csv` tables every
+    ``every`` steps (a step is never written twice): ``<directory>/<name>_<step>.csv`` and, if
+    ``contacts``, ``<name>_contacts_<step>.csv``; after each frame the index
+    ``<name>_frames.csv`` (columns ``step,time,file``) is rewritten atomically. TypeError /
+    ValueError for a bad ``every`` or ``name``."""
+
+    def __init__(self, directory, every: int, name: str = "state", contacts: bool = True):
+        super().__init__(every)
+        self.directory = os.fspath(directory)
+        self.name = _check_name(name)
+        self.contacts = bool(contacts)
+        self._index = _CSVSeries(self.directory, f"{self.name}_frames.csv",
+                                 rf"{re.escape(self.name)}_(\d+)\.csv")
+
+    def _write(self, sim) -> None:
+        step = sim.step_count
+        path = os.path.join(self.directory, f"{self.name}_{step}.csv")
+        contacts_path = (os.path.join(self.directory, f"{self.name}_contacts_{step}.csv")
+                         if self.contacts else None)
+        save_csv(sim, path, contacts_path)
+        self._index.add(step, sim.time, os.path.basename(path))
