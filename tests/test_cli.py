@@ -116,7 +116,8 @@ def test_resume_refuses_a_file_that_is_not_a_checkpoint(tmp_path, capsys):
         (line,) = capsys.readouterr().err.splitlines()
         assert line.startswith(f"tsubu: error: {path}: ")
     assert main(["resume", str(tmp_path / "missing.tsubu")]) == 2
-    assert capsys.readouterr().err.startswith(f"tsubu: error: {tmp_path / 'missing.tsubu'}: ")
+    assert capsys.readouterr().err == (f"tsubu: error: {tmp_path / 'missing.tsubu'}: cannot read the "
+                                       "checkpoint: No such file or directory\n")
 
 
 def test_resume_refuses_a_checkpoint_without_a_scene(tmp_path, capsys):
@@ -139,7 +140,10 @@ def test_run_then_resume_continues_to_the_end(tmp_path, capsys):
     # resume with --time: 1 ms more, then --until 0.0025
     assert main(["resume", str(checkpoint), "--time", "0.001", "--no-progress"]) == 0
     assert abs(tsubu.Simulation.load(checkpoint).time - 0.003) < end.dt
+    assert tsubu.Simulation.load(checkpoint).metadata["end_time"] == pytest.approx(0.003, abs=end.dt)  # the new end
     assert main(["resume", str(checkpoint), "--no-progress"]) == 0  # already at the end: nothing to do
+    assert abs(tsubu.Simulation.load(checkpoint).time - 0.003) < end.dt
+    assert main(["resume", str(checkpoint), "--until", "0.0025", "--no-progress"]) == 0  # in the past
     assert abs(tsubu.Simulation.load(checkpoint).time - 0.003) < end.dt
     assert "tsubu resume" in capsys.readouterr().out
 

@@ -122,7 +122,11 @@ def resume(args: argparse.Namespace) -> int:
         scene = resume_scene(args.checkpoint, threads=args.threads, output_directory=args.output)
     except SceneError as e:
         return _scene_error(e)
-    except (OSError, ValueError) as e:  # Simulation.load: a missing, corrupted, foreign or newer file
+    except OSError as e:
+        print(f"tsubu: error: {args.checkpoint}: cannot read the checkpoint: {e.strerror or e}",
+              file=sys.stderr)
+        return 2
+    except ValueError as e:  # Simulation.load: a truncated, corrupted, foreign or newer file
         print(f"tsubu: error: {args.checkpoint}: {e}", file=sys.stderr)
         return 2
     until = None

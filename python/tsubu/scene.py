@@ -892,11 +892,14 @@ class Scene:
 
     def run(self, until: float | None = None, progress: bool | None = None) -> Simulation:
         """Run to simulated time ``until`` [s] (default :attr:`end_time`) with the scene's output
-        and checkpoints; returns the Simulation. A final checkpoint is written at the end when the
+        and checkpoints; returns the Simulation. An ``until`` beyond :attr:`end_time` becomes the
+        new end time (the one the checkpoints record, which ``tsubu resume`` runs to). A final checkpoint is written at the end when the
         scene has a [checkpoint] table. Raises InstabilityError (the run went unstable) and
         KeyboardInterrupt (Ctrl-C; a checkpoint is written first when the scene has one)."""
         sim = self.simulation
         end = self.end_time if until is None else until
+        # a run taken beyond the scene's end moves it (what tsubu resume of its checkpoints reaches)
+        self.end_time = max(self.end_time, end)
         remaining = max(0.0, end - sim.time)
         kwargs: dict = {"progress": progress}
         if self.checkpoint is not None:
