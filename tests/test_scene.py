@@ -432,3 +432,13 @@ def test_run_writes_output_and_checkpoints_and_resume_continues_bit_for_bit(tmp_
     assert pvd["half"].replace("/half/", "/whole/") == pvd["whole"]
     for d in ("whole", "half"):
         assert len([f for f in os.listdir(tmp_path / d) if f.startswith("checkpoint.step")]) == 2
+
+
+def test_the_example_in_the_docs_is_a_valid_scene():
+    page = (DOCS / "scene-format.md").read_text(encoding="utf-8")
+    example = page.split("```toml\n", 1)[1].split("```", 1)[0]
+    data = tomllib.loads(example)
+    scene.validate(data)
+    jsonschema = pytest.importorskip("jsonschema")
+    schema = json.loads((DOCS / "scene.schema.json").read_text(encoding="utf-8"))
+    assert jsonschema.Draft202012Validator(schema).is_valid(data)
