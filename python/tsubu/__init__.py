@@ -14,9 +14,10 @@ history, rolling friction, plane walls and a linked-cell neighbour list, driven 
 from . import _core
 from .material import Material
 from .simulation import InstabilityError, Simulation
-from . import output
+from . import fill, output
+from .insert import Inserter
 
 __version__ = "0.1.0"
 openmp = bool(_core.openmp)
 
-__all__ = ["Material", "Simulation", "InstabilityError", "output", "openmp", "__version__"]
+__all__ = ["Material", "Simulation", "InstabilityError", "fill", "Inserter", "output", "openmp", "__version__"]

@@ -1,5 +1,10 @@
-"""Command line: ``python -m tsubu demo`` runs a small scene and prints what it simulated;
-``python -m tsubu info`` prints the build's capabilities."""
+"""Command line: ``tsubu run scene.toml`` runs a scene file (docs/scene-format.md);
+``tsubu resume CHECKPOINT`` continues a scene run from its checkpoint; ``tsubu demo`` runs a small
+embedded scene and prints what it simulated; ``tsubu info`` prints the build's capabilities.
+
+Exit status: 0 on success, 2 for a bad scene file, key or value, or a checkpoint that cannot be
+resumed (one line each: ``tsubu: error: <file>: <path> = <value>: <what is wrong>``), 1 for a run
+that went unstable, 130 after Ctrl-C."""
 
 from __future__ import annotations
 
@@ -70,6 +75,88 @@ def info(_: argparse.Namespace) -> int:
     return 0
 
 
+def _execute(scene, source: str, what: str, until: float | None, progress: bool | None) -> int:
+    from .simulation import InstabilityError
+    steps_before = scene.simulation.step_count
+    start = time.perf_counter()
+    try:
+        scene.run(until=until, progress=progress)
+    except InstabilityError as e:
+        print(f"tsubu: error: {source}: the run went unstable: {e}", file=sys.stderr)
+        return 1
+    except KeyboardInterrupt:
+        sim = scene.simulation
+        saved = f"; checkpoint in {scene.checkpoint['path']}" if scene.checkpoint is not None else ""
+        print(f"\ntsubu: interrupted at t = {sim.time:.6g} s (step {sim.step_count}){saved}",
+              file=sys.stderr)
+        return 130
+    wall = time.perf_counter() - start
+    sim = scene.simulation
+    steps = sim.step_count - steps_before
+    rate = sim.size * steps / max(wall, 1e-9)
+    print(f"tsubu {what} {source}: {sim.size} spheres, t = {sim.time:.6g} s (step {sim.step_count}), "
+          f"{steps} steps in {wall:.2f} s ({rate / 1e6:.2f} M particle-steps/s)")
+    if scene.output or scene.checkpoint is not None:
+        print(f"  output in {scene.output_directory}")
+    return 0
+
+
+def _scene_error(e) -> int:
+    for line in e.lines():
+        print(f"tsubu: error: {line}", file=sys.stderr)
+    return 2
+
+
+def run(args: argparse.Namespace) -> int:
+    from .scene import SceneError, load_scene
+    try:
+        scene = load_scene(args.scene, threads=args.threads, output_directory=args.output)
+    except SceneError as e:
+        return _scene_error(e)
+    return _execute(scene, args.scene, "run", None, False if args.no_progress else None)
+
+
+def resume(args: argparse.Namespace) -> int:
+    from .scene import SceneError, resume as resume_scene
+    try:
+        scene = resume_scene(args.checkpoint, threads=args.threads, output_directory=args.output)
+    except SceneError as e:
+        return _scene_error(e)
+    except OSError as e:
+        print(f"tsubu: error: {args.checkpoint}: cannot read the checkpoint: {e.strerror or e}",
+              file=sys.stderr)
+        return 2
+    except ValueError as e:  # Simulation.load: a truncated, corrupted, foreign or newer file
+        print(f"tsubu: error: {args.checkpoint}: {e}", file=sys.stderr)
+        return 2
+    until = None
+    if args.time is not None:
+        until = scene.simulation.time + args.time
+    elif args.until is not None:
+        until = args.until
+    return _execute(scene, args.checkpoint, "resume", until, False if args.no_progress else None)
+
+
+def _seconds(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"must be a number of seconds, got {text!r}") from None
+    if not (value >= 0 and value < float("inf")):
+        raise argparse.ArgumentTypeError(f"must be a finite number of seconds >= 0, got {text!r}")
+    return value
+
+
+def _threads(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"must be an integer, got {text!r}") from None
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"must be >= 1, got {text!r}")
+    return value
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="tsubu", description=__doc__)
     sub = parser.add_subparsers(dest="command", required=True)
@@ -81,6 +168,26 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--progress", action="store_true", help="print progress")
     p.set_defaults(func=demo)
     sub.add_parser("info", help="print version and build capabilities").set_defaults(func=info)
+    p = sub.add_parser("run", help="run a scene file (TOML; docs/scene-format.md)")
+    p.add_argument("scene", help="the scene file")
+    p.add_argument("--threads", type=_threads, default=None,
+                   help="OpenMP threads (default: the scene's simulation.threads, else all cores)")
+    p.add_argument("--output", default=None, metavar="DIR",
+                   help="directory for output and checkpoints (default: the scene's output.directory)")
+    p.add_argument("--no-progress", action="store_true", help="no progress bar")
+    p.set_defaults(func=run)
+    p = sub.add_parser("resume", help="continue a scene run from its checkpoint")
+    p.add_argument("checkpoint", help="a checkpoint written by tsubu run")
+    when = p.add_mutually_exclusive_group()
+    when.add_argument("--time", type=_seconds, default=None, metavar="T",
+                      help="run T more seconds of simulated time")
+    when.add_argument("--until", type=_seconds, default=None, metavar="T",
+                      help="run until simulated time T (default: the scene's end)")
+    p.add_argument("--threads", type=_threads, default=None, help="OpenMP threads")
+    p.add_argument("--output", default=None, metavar="DIR",
+                   help="directory for output and checkpoints (default: the run's)")
+    p.add_argument("--no-progress", action="store_true", help="no progress bar")
+    p.set_defaults(func=resume)
     args = parser.parse_args(argv)
     return args.func(args)
 

@@ -1,0 +1,155 @@
+"""The command line: tsubu run / resume / demo / info, their exit codes and one-line errors."""
+
+import os
+import pathlib
+import re
+import shutil
+import subprocess
+import sys
+
+import pytest
+
+import tsubu
+from tsubu.__main__ import main
+
+SCENES = pathlib.Path(__file__).resolve().parent / "scenes"
+
+
+def copy_scene(tmp_path, name="drop.toml"):
+    for f in (name, "beads.csv"):
+        shutil.copy(SCENES / f, tmp_path / f)
+    return tmp_path / name
+
+
+def test_run_a_scene(tmp_path, capsys):
+    path = copy_scene(tmp_path)
+    assert main(["run", str(path), "--no-progress", "--threads", "1"]) == 0
+    out = capsys.readouterr().out
+    assert re.match(rf"tsubu run {re.escape(str(path))}: 3 spheres, t = 0\.00[12]\d* s \(step \d+\)", out)
+
+
+def test_a_bad_scene_exits_2_with_one_line_per_error(capsys):
+    path = str(SCENES / "bad.toml")
+    assert main(["run", path]) == 2
+    err = capsys.readouterr().err.splitlines()
+    assert len(err) == 12
+    assert all(line.startswith(f"tsubu: error: {path}: ") for line in err)
+    assert f"tsubu: error: {path}: materials.glass.restitution = 1.5: must be in (0, 1]" in err
+
+
+def test_the_installed_command_prints_no_traceback(tmp_path):
+    bad = tmp_path / "scene.toml"
+    bad.write_text('[simulation]\nduration = 1.0\ndt = 1e-3\n[materials.glass]\nrestitution = 1.5\n')
+    result = subprocess.run([sys.executable, "-m", "tsubu", "run", str(bad)], capture_output=True, text=True,
+                            cwd=tmp_path)
+    assert result.returncode == 2
+    assert result.stderr == f"tsubu: error: {bad}: materials.glass.restitution = 1.5: must be in (0, 1]\n"
+    assert result.stdout == ""
+
+
+@pytest.mark.parametrize("text, message", [
+    ("[simulation\n", "not a valid TOML file: "),
+    ("", "simulation: required key missing"),
+    ("[simulation]\nduration = 1\n[materials]\n[[walls]]\npoint = [0, 0, 0]\nnormal = [0, 0, 1]\n"
+     "material = \"glass\"\n", 'walls[0].material = "glass": no such material; defined: none'),
+])
+def test_file_errors(tmp_path, capsys, text, message):
+    path = tmp_path / "scene.toml"
+    path.write_text(text)
+    assert main(["run", str(path)]) == 2
+    err = capsys.readouterr().err.splitlines()
+    assert err[0].startswith(f"tsubu: error: {path}: {message}")
+
+
+def test_a_missing_scene_file(tmp_path, capsys):
+    path = tmp_path / "none.toml"
+    assert main(["run", str(path)]) == 2
+    assert capsys.readouterr().err == f"tsubu: error: {path}: cannot read the scene file: No such file or directory\n"
+
+
+def test_an_unstable_run_exits_1(tmp_path, capsys):
+    path = copy_scene(tmp_path)
+    text = path.read_text().replace("dt_fraction = 0.02", "dt = 1e-3\nallow_unstable_dt = true\nmax_overlap = 0.01")
+    text = text.replace("duration = 0.002", "duration = 0.1")
+    path.write_text(text)
+    assert main(["run", str(path), "--no-progress"]) == 1
+    (line,) = capsys.readouterr().err.splitlines()
+    assert line.startswith(f"tsubu: error: {path}: the run went unstable: unstable at step ")
+
+
+def test_output_directory_override(tmp_path, capsys):
+    pytest.importorskip("tsubu.output")
+    path = copy_scene(tmp_path)
+    path.write_text(path.read_text() + "\n[output]\ndirectory = \"here\"\nnpz = { every = 50 }\n")
+    assert main(["run", str(path), "--no-progress", "--output", str(tmp_path / "there")]) == 0
+    assert not (tmp_path / "here").exists()
+    assert any(f.endswith(".npz") for f in os.listdir(tmp_path / "there"))
+    assert f"output in {tmp_path / 'there'}" in capsys.readouterr().out
+
+
+@pytest.mark.parametrize("argv", [
+    ["run", "scene.toml", "--threads", "0"],
+    ["run", "scene.toml", "--threads", "two"],
+    ["resume", "c.tsubu", "--time", "1", "--until", "2"],
+    ["resume", "c.tsubu", "--time", "-1"],
+    ["resume", "c.tsubu", "--until", "nan"],
+    ["run"],
+])
+def test_bad_arguments_exit_2(argv, capsys):
+    with pytest.raises(SystemExit) as info:
+        main(argv)
+    assert info.value.code == 2
+    assert "error:" in capsys.readouterr().err
+
+
+def needs_checkpoints():
+    if not hasattr(tsubu.Simulation, "save"):
+        pytest.skip("checkpoints (Simulation.save) not in this build")
+
+
+def test_resume_refuses_a_file_that_is_not_a_checkpoint(tmp_path, capsys):
+    needs_checkpoints()
+    for content in (b"", b"not a checkpoint at all\n" * 10):
+        path = tmp_path / "c.tsubu"
+        path.write_bytes(content)
+        assert main(["resume", str(path)]) == 2
+        (line,) = capsys.readouterr().err.splitlines()
+        assert line.startswith(f"tsubu: error: {path}: ")
+    assert main(["resume", str(tmp_path / "missing.tsubu")]) == 2
+    assert capsys.readouterr().err == (f"tsubu: error: {tmp_path / 'missing.tsubu'}: cannot read the "
+                                       "checkpoint: No such file or directory\n")
+
+
+def test_resume_refuses_a_checkpoint_without_a_scene(tmp_path, capsys):
+    needs_checkpoints()
+    sim = tsubu.Simulation(dt=1e-5)
+    sim.add_sphere((0, 0, 0.01), 1e-3, tsubu.Material())
+    sim.save(tmp_path / "plain.tsubu")
+    assert main(["resume", str(tmp_path / "plain.tsubu")]) == 2
+    assert "was not written by a scene run" in capsys.readouterr().err
+
+
+def test_run_then_resume_continues_to_the_end(tmp_path, capsys):
+    needs_checkpoints()
+    path = copy_scene(tmp_path)
+    path.write_text(path.read_text() + "\n[checkpoint]\npath = \"run.tsubu\"\n")
+    assert main(["run", str(path), "--no-progress"]) == 0
+    checkpoint = tmp_path / "output" / "run.tsubu"
+    end = tsubu.Simulation.load(checkpoint)
+    assert abs(end.time - 0.002) < end.dt
+    # resume with --time: 1 ms more, then --until 0.0025
+    assert main(["resume", str(checkpoint), "--time", "0.001", "--no-progress"]) == 0
+    assert abs(tsubu.Simulation.load(checkpoint).time - 0.003) < end.dt
+    assert tsubu.Simulation.load(checkpoint).metadata["end_time"] == pytest.approx(0.003, abs=end.dt)  # the new end
+    assert main(["resume", str(checkpoint), "--no-progress"]) == 0  # already at the end: nothing to do
+    assert abs(tsubu.Simulation.load(checkpoint).time - 0.003) < end.dt
+    assert main(["resume", str(checkpoint), "--until", "0.0025", "--no-progress"]) == 0  # in the past
+    assert abs(tsubu.Simulation.load(checkpoint).time - 0.003) < end.dt
+    assert "tsubu resume" in capsys.readouterr().out
+
+
+def test_demo_and_info_still_work(capsys):
+    assert main(["info"]) == 0
+    assert capsys.readouterr().out.startswith(f"tsubu {tsubu.__version__}")
+    assert main(["demo", "--nx", "2", "--nz", "2", "--time", "0.001", "--threads", "1"]) == 0
+    assert "demo: 8 glass beads" in capsys.readouterr().out
