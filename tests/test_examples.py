@@ -1,0 +1,93 @@
+"""The examples in examples/, each in its reduced --quick mode: they run, write their output, and
+their physics result holds (a few seconds each). The figures need matplotlib (the bench extra):
+drawn from the written output when it is installed."""
+
+from __future__ import annotations
+
+import importlib.util
+import json
+import math
+import pathlib
+
+import numpy as np
+import pytest
+
+EXAMPLES = pathlib.Path(__file__).resolve().parent.parent / "examples"
+
+
+def load_example(name: str):
+    """The example script as a module (examples/ is not a package)."""
+    spec = importlib.util.spec_from_file_location(f"tsubu_example_{name}", EXAMPLES / f"{name}.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+def draw_figure(module, out: pathlib.Path) -> None:
+    """The figure from the output folder alone, when matplotlib is there."""
+    pytest.importorskip("matplotlib")
+    figure = out / "figure.png"
+    module.plot(str(out), str(figure))
+    assert figure.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+@pytest.fixture(scope="module")
+def oblique(tmp_path_factory):
+    out = tmp_path_factory.mktemp("oblique_collision")
+    module = load_example("oblique_collision")
+    return module, module.main(["--quick", "--no-figure", "--out", str(out)]), out
+
+
+def test_oblique_collision_normal_force_is_hertz(oblique):
+    module, summary, out = oblique
+    assert set(summary) == {f"{rule} {a:g}" for rule in module.SLIP_RULES for a in module.ANGLES}
+    for key, s in summary.items():
+        # Head-on (10 and 30 degrees) the peak is Hertz's to 0.1 %; at 75 degrees the line of
+        # centres turns during the contact and the normal approach slows: 0.6 % below.
+        assert abs(s["peak_force_error"]) < (0.01 if key.endswith(" 75") else 1e-3), (key, s)
+        # The duration is counted in steps of t_c/50.
+        assert abs(s["duration_error"]) <= 1.5 / 50, (key, s)
+
+
+def test_oblique_collision_friction_obeys_coulomb(oblique):
+    module, summary, out = oblique
+    for key, s in summary.items():
+        assert s["max_friction_ratio"] <= 1.0 + 1e-9, (key, s)
+    # Beyond the rigid-body threshold (64.5 degrees) the contact slides throughout; at 10
+    # degrees it sticks most of the time and the tangential force reverses.
+    assert summary["truncate 75"]["sliding_fraction"] == 1.0
+    assert summary["frozen 75"]["sliding_fraction"] > 0.9
+    for rule in module.SLIP_RULES:
+        assert summary[f"{rule} 10"]["sliding_fraction"] < 0.2
+        assert summary[f"{rule} 10"]["force_reverses"]
+        assert not summary[f"{rule} 75"]["force_reverses"]
+
+
+def test_oblique_collision_output_files(oblique):
+    module, summary, out = oblique
+    assert json.loads((out / "oblique_collision.json").read_text()) == summary
+    for rule in module.SLIP_RULES:
+        data = np.loadtxt(out / f"oblique_collision_{rule}.csv", delimiter=",", skiprows=1)
+        assert sorted(np.unique(data[:, 0])) == sorted(module.ANGLES)
+        assert np.all(data[:, 2] >= 0) and np.all(np.isfinite(data))
+        peak = max(data[data[:, 0] == 10.0, 3])
+        assert math.isclose(peak, summary[f"{rule} 10"]["peak_normal_force"])
+    draw_figure(module, out)
+
+
+def test_column_collapse_run_out(tmp_path):
+    module = load_example("column_collapse")
+    (s,) = module.main(["--quick", "--no-figure", "--out", str(tmp_path)])
+    assert s["at_rest"] and not s["gate_touched"]
+    assert 0.8 < s["aspect_ratio"] < 1.05
+    # Lube et al. (2005): 1.2 a. This column is 6 grains wide (finite size): within a factor 2.
+    assert 0.6 * s["aspect_ratio"] < s["normalised_run_out"] < 2.4 * s["aspect_ratio"], s
+    # The column has spread: lower than it was, and no grain left the channel.
+    assert s["final_height"] < 0.95 * s["height"]
+    data = np.load(tmp_path / "column_a1.npz")
+    final, radii = data["final_positions"], data["radii"]
+    assert len(final) == s["grains"] and np.all(final[:, 2] > 0)
+    assert np.all((final[:, 1] > 0) & (final[:, 1] < s["width"]))
+    assert np.all(final[:, 0] > 0) and final[:, 0].max() < s["gate_position"]
+    assert s["run_out"] <= s["farthest_grain"] + 1e-12
+    draw_figure(module, tmp_path)
