@@ -14,8 +14,10 @@ history, rolling friction, plane walls and a linked-cell neighbour list, driven 
 from . import _core
 from .material import Material
 from .simulation import InstabilityError, Simulation
+from . import fill
+from .insert import Inserter
 
 __version__ = "0.1.0"
 openmp = bool(_core.openmp)
 
-__all__ = ["Material", "Simulation", "InstabilityError", "openmp", "__version__"]
+__all__ = ["Material", "Simulation", "InstabilityError", "fill", "Inserter", "openmp", "__version__"]

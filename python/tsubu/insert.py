@@ -1,0 +1,315 @@
+"""Pouring: an inserter adds spheres to a running simulation at a number or mass rate."""
+
+from __future__ import annotations
+
+import math
+import numbers
+
+import numpy as np
+
+from . import _checks
+from .fill import _CellGrid, _GAP, _region, _sequential_addition, _sizes, distribution_from_dict, \
+    region_from_dict
+from .material import Material
+
+__all__ = ["Inserter"]
+
+# Random positions tried per sphere at one event before what is left waits for the next event.
+_ATTEMPTS_PER_EVENT = 2000
+# Radii are drawn in chunks of this size, so the stream of sizes does not depend on when events
+# fall or how a run is cut into pieces.
+_SIZE_CHUNK = 64
+# An event is due at the first step whose time is at least its time, less this many steps
+# (rounding in sim.time).
+_STEP_SLACK = 1e-6
+
+
+class Inserter:
+    """Pours spheres into ``region`` during runs, as LIGGGHTS's ``fix insert/stream`` does.
+
+    Usually made with :meth:`tsubu.Simulation.add_inserter` (same arguments), which keeps it
+    and runs it in every run. At events every ``interval`` seconds of simulated time from
+    ``start``, it adds the amount due for the interval that begins (``rate`` x interval) at
+    random points of the region where the spheres overlap neither the spheres already in the
+    simulation nor each other, with ``velocity`` and ``angular_velocity``. Spheres that find no
+    room (the region is full) are carried over to the next event, first in line. Walls are not
+    looked at: put the region where walls are not.
+
+    Parameters
+    ----------
+    region : tsubu.fill.Box, Cylinder or Region
+        Where spheres are placed (each sphere wholly inside).
+    rate : float
+        Spheres per second (``basis="number"``) or kilograms per second (``basis="mass"``), > 0.
+    sizes : a tsubu.fill size distribution, or a radius [m]
+        The radii, drawn in order from one stream.
+    material : tsubu.Material
+    velocity, angular_velocity : (3,) floats
+        Of each inserted sphere [m/s], [rad/s]. Default zero.
+    basis : "number" or "mass"
+        The unit of ``rate`` and ``total``. By mass, spheres from the size stream are inserted
+        while the mass inserted stays within half a sphere's mass of ``rate`` x time.
+    start : float
+        Time of the first event [s] (>= 0; default 0).
+    stop : float or None
+        No amount becomes due after this time [s] (> start). Events go on only to place what is
+        still pending. None: no end.
+    total : int or float or None
+        The most spheres (number basis, an integer >= 1) or kilograms (mass basis, > 0) to
+        insert; the inserter ends when they are in. None: no limit.
+    interval : float or None
+        Seconds between events (> 0). None: the time a sphere inserted with ``velocity`` takes
+        to cross the region's extent along it (along gravity when ``velocity`` is zero),
+        accelerated by gravity, so that one event's spheres have left the region before the
+        next; evaluated at the first event (ValueError if there is neither velocity nor gravity).
+    seed : int
+        The same seed gives the same spheres, at the same places, whatever the thread count.
+
+    Properties: ``inserted`` (spheres so far), ``inserted_mass`` [kg], ``pending`` (spheres
+    due but not yet placed), ``interval`` (None until resolved), ``finished``.
+
+    It is a run hook (:mod:`tsubu.hooks`): ``next_step(sim)`` gives the step of the next
+    event, ``act(sim)`` inserts, ``close(sim)`` does nothing.
+    """
+
+    def __init__(self, region, rate, sizes, material, velocity=(0.0, 0.0, 0.0), basis: str = "number",
+                 angular_velocity=(0.0, 0.0, 0.0), start=0.0, stop=None, total=None, interval=None,
+                 seed: int = 0):
+        self.region = _region(region)
+        self.rate = _checks.positive("rate", rate)
+        self.sizes = _sizes(sizes)
+        if not isinstance(material, Material):
+            raise TypeError(f"material must be a tsubu.Material, got {material!r}")
+        self.material = material
+        self.velocity = np.array(_checks.vec3("velocity", velocity))
+        self.basis = _checks.choice("basis", basis, ("number", "mass"))
+        self.angular_velocity = np.array(_checks.vec3("angular_velocity", angular_velocity))
+        self.start = _checks.positive("start", start, allow_zero=True)
+        self.stop = None if stop is None else _checks.positive("stop", stop)
+        if self.stop is not None and not self.stop > self.start:
+            raise ValueError(f"stop must be > start = {self.start!r} s, got {stop!r}")
+        if total is None:
+            self.total = None
+        elif self.basis == "number":
+            self.total = _checks.whole("total", total, minimum=1)
+        else:
+            self.total = _checks.positive("total", total)
+        self._given_interval = None if interval is None else _checks.positive("interval", interval)
+        self.seed = _checks.whole("seed", seed, maximum=2**64 - 1)
+        extent = self.region.upper - self.region.lower
+        if 2 * self.sizes.max_radius > extent.min():
+            raise ValueError(f"sizes: spheres of radius up to {self.sizes.max_radius!r} m do not fit "
+                             f"in the region, whose bounding box is {extent.tolist()} m")
+        self._size_rng = np.random.default_rng([self.seed, 0])
+        self._place_rng = np.random.default_rng([self.seed, 1])
+        self._queue = np.empty(0)  # radii drawn and not yet inserted, in stream order
+        self._interval = self._given_interval
+        self._event = 0  # index of the next event: at start + event * interval
+        self._inserted = 0
+        self._inserted_mass = 0.0
+        self._pending = 0
+
+    # ---- properties ----------------------------------------------------------------------------
+    @property
+    def inserted(self) -> int:
+        """Spheres inserted so far."""
+        return self._inserted
+
+    @property
+    def inserted_mass(self) -> float:
+        """Mass inserted so far [kg] (the sum of the simulation's masses of those spheres)."""
+        return self._inserted_mass
+
+    @property
+    def pending(self) -> int:
+        """Spheres that were due at the last event but found no room (placed first at the next)."""
+        return self._pending
+
+    @property
+    def interval(self):
+        """Seconds between events; None while the default is not yet resolved (first event)."""
+        return self._interval
+
+    @property
+    def finished(self) -> bool:
+        """True when nothing more will be inserted (``total`` reached, or past ``stop`` with
+        nothing pending)."""
+        if self._pending:
+            return False
+        cap = self._final_target()
+        return cap is not None and self._due(cap) == 0
+
+    # ---- amounts ---------------------------------------------------------------------------------
+    def _target(self, event: int) -> float:
+        """The amount (count or kg) due by the end of the interval that starts at ``event``."""
+        span = (event + 1) * self._interval
+        if self.stop is not None:
+            span = min(span, self.stop - self.start)
+        amount = self.rate * span
+        return amount if self.total is None else min(amount, self.total)
+
+    def _final_target(self):
+        if self.total is not None and self.stop is None:
+            return float(self.total)
+        if self.stop is None:
+            return None
+        amount = self.rate * (self.stop - self.start)
+        return amount if self.total is None else min(amount, self.total)
+
+    def _masses(self, radii):
+        return self.material.density * 4.0 / 3.0 * math.pi * radii ** 3
+
+    def _due(self, target: float) -> int:
+        """How many spheres at the head of the queue are due when ``target`` is due (drawing more
+        radii as needed)."""
+        if self.basis == "number":
+            return max(0, int(math.floor(target * (1 + 1e-12))) - self._inserted)
+        room = target - self._inserted_mass
+        while True:
+            mass = self._masses(self._queue)
+            cumulative = np.cumsum(mass)
+            due = int(np.count_nonzero(cumulative - 0.5 * mass <= room))
+            if due < len(self._queue):
+                return due
+            self._draw()
+
+    def _draw(self) -> None:
+        self._queue = np.concatenate([self._queue, self.sizes.sample(_SIZE_CHUNK, self._size_rng)])
+
+    def _head(self, count: int) -> np.ndarray:
+        while len(self._queue) < count:
+            self._draw()
+        return self._queue[:count]
+
+    def _resolve_interval(self, sim) -> float:
+        if self._interval is not None:
+            return self._interval
+        speed = float(np.linalg.norm(self.velocity))
+        gravity = np.asarray(sim.gravity, dtype=float)
+        if speed > 0:
+            direction = self.velocity / speed
+        elif np.any(gravity != 0):
+            direction = gravity / float(np.linalg.norm(gravity))
+        else:
+            raise ValueError("Inserter: interval=None needs a velocity or gravity to choose the "
+                             "time between events: give interval= (seconds)")
+        extent = float(np.abs(direction) @ (self.region.upper - self.region.lower))
+        accel = float(gravity @ direction)
+        if accel > 0:  # extent = v t + a t^2 / 2
+            t = 2.0 * extent / (speed + math.sqrt(speed * speed + 2.0 * accel * extent))
+        else:
+            t = extent / speed
+        self._interval = t
+        return t
+
+    # ---- the hook --------------------------------------------------------------------------------
+    def next_step(self, sim):
+        """The step of the next event (>= sim.step_count), or None when finished."""
+        if self.finished:
+            return None
+        interval = self._resolve_interval(sim)
+        when = self.start + self._event * interval
+        steps = (when - sim.time) / sim.dt
+        return sim.step_count + max(0, math.ceil(steps - _STEP_SLACK))
+
+    def act(self, sim) -> None:
+        """Insert what is due at this event (and what earlier events left pending)."""
+        interval = self._resolve_interval(sim)
+        reached = math.floor((sim.time - self.start) / interval + _STEP_SLACK * sim.dt / interval)
+        event = max(self._event, reached)
+        due = self._due(self._target(event))
+        self._event = event + 1
+        if due == 0:
+            self._pending = 0
+            return
+        radii = self._head(due).copy()
+        positions, placed = self._place(sim, radii)
+        if placed.any():
+            ids = sim.add_spheres(
+                positions[placed], radii[placed], self.material,
+                velocities=np.tile(self.velocity, (int(placed.sum()), 1)),
+                angular_velocities=np.tile(self.angular_velocity, (int(placed.sum()), 1)))
+            self._inserted += len(ids)
+            self._inserted_mass += float(np.sum(sim.masses[ids]))
+        # what found no room stays at the head of the queue, in stream order
+        self._queue = np.concatenate([radii[~placed], self._queue[due:]])
+        self._pending = int(np.count_nonzero(~placed))
+
+    def close(self, sim) -> None:
+        """Nothing to flush."""
+
+    def _place(self, sim, radii):
+        """Positions for ``radii`` in the region clear of the simulation's spheres (NaN where no
+        room was found) and which were placed; the largest spheres are placed first."""
+        region = self.region
+        largest = float(radii.max())
+        existing_x = sim.positions if sim.size else np.zeros((0, 3))
+        existing_r = sim.radii if sim.size else np.zeros(0)
+        reach = largest + (float(existing_r.max()) if len(existing_r) else largest)
+        lower, upper = region.lower - reach, region.upper + reach
+        near = np.all((existing_x >= lower) & (existing_x <= upper), axis=1)
+        grid = _CellGrid(lower, upper, max(2 * largest, reach) * (1 + 2 * _GAP),
+                         int(near.sum()) + len(radii))
+        grid.add(existing_x[near], existing_r[near])
+        order = np.argsort(-radii, kind="stable")
+        x, ok = _sequential_addition(region, radii[order], self._place_rng, grid, _ATTEMPTS_PER_EVENT)
+        positions = np.full((len(radii), 3), np.nan)
+        placed = np.zeros(len(radii), dtype=bool)
+        positions[order], placed[order] = x, ok
+        return positions, placed
+
+    # ---- checkpoints -------------------------------------------------------------------------------
+    def _config(self, sim) -> dict:
+        """The constructor's arguments as JSON-able values (the material as its index in
+        ``sim.materials``, registered there if the simulation did not know it yet)."""
+        return {"region": self.region.to_dict(), "rate": self.rate, "sizes": self.sizes.to_dict(),
+                "material": _material_index(sim, self.material),
+                "velocity": self.velocity.tolist(), "basis": self.basis,
+                "angular_velocity": self.angular_velocity.tolist(), "start": self.start,
+                "stop": self.stop, "total": self.total, "interval": self._given_interval,
+                "seed": self.seed}
+
+    @classmethod
+    def _from_config(cls, config: dict, sim) -> "Inserter":
+        """The Inserter a ``_config`` dict describes, with its material from ``sim.materials``."""
+        args = dict(config)
+        args["region"] = region_from_dict(args["region"])
+        args["sizes"] = distribution_from_dict(args["sizes"])
+        index = args["material"]
+        materials = sim.materials
+        if not (isinstance(index, numbers.Integral) and 0 <= index < len(materials)):
+            raise ValueError(f"inserter material index {index!r} is not one of the simulation's "
+                             f"{len(materials)} materials")
+        args["material"] = materials[index]
+        return cls(**args)
+
+    def _state(self) -> dict:
+        """The progress as JSON-able values: counts, next event, drawn radii, the generators."""
+        return {"inserted": self._inserted, "inserted_mass": self._inserted_mass,
+                "pending": self._pending, "event": self._event, "interval": self._interval,
+                "queue": self._queue.tolist(),
+                "size_rng": self._size_rng.bit_generator.state,
+                "place_rng": self._place_rng.bit_generator.state}
+
+    def _restore(self, state: dict) -> None:
+        """Continue from a ``_state()``: the same future insertions as the Inserter it came from."""
+        self._inserted = int(state["inserted"])
+        self._inserted_mass = float(state["inserted_mass"])
+        self._pending = int(state["pending"])
+        self._event = int(state["event"])
+        self._interval = None if state["interval"] is None else float(state["interval"])
+        self._queue = np.array(state["queue"], dtype=float).reshape(-1)
+        self._size_rng.bit_generator.state = state["size_rng"]
+        self._place_rng.bit_generator.state = state["place_rng"]
+
+    def __repr__(self) -> str:
+        return (f"Inserter({self.region!r}, rate={self.rate!r} ({self.basis}), sizes={self.sizes!r}, "
+                f"inserted={self._inserted})")
+
+
+def _material_index(sim, material: Material) -> int:
+    for k, m in enumerate(sim.materials):
+        if m is material:
+            return k
+    sim._material(material, scene=True)  # registers it (and refuses a law the scene does not use)
+    return next(k for k, m in enumerate(sim.materials) if m is material)
