@@ -189,4 +189,5 @@ def test_a_run_with_progress_stops_on_request(capsys):
     sim.run(steps=2_000_000, progress=True)
     timer.join()
     assert sim.stopped and 0 < sim.step_count < 2_000_000
-    assert "[tsubu] step" in capsys.readouterr().err
+    err = capsys.readouterr().err
+    assert "tsubu" in err and "step" in err and "particle-steps/s" in err

@@ -140,3 +140,15 @@ def whole(name: str, value, *, minimum: int = 0, maximum: int = 2**62) -> int:
     if value > maximum:
         raise ValueError(f"{name} must be <= {maximum}, got {value!r}")
     return int(value)
+
+
+def path(name: str, value) -> "Path":
+    """A file path (str or os.PathLike, not empty) as a pathlib.Path."""
+    import os
+    from pathlib import Path
+
+    if isinstance(value, bytes) or not isinstance(value, (str, os.PathLike)):
+        raise TypeError(f"{name} must be a file path (str or os.PathLike), got {value!r}")
+    if str(value) == "":
+        raise ValueError(f"{name} must be a file path, got an empty string")
+    return Path(value)

@@ -209,13 +209,18 @@ class Inserter:
             return None
         interval = self._resolve_interval(sim)
         when = self.start + self._event * interval
-        steps = (when - sim.time) / sim.dt
-        return sim.step_count + max(0, math.ceil(steps - _STEP_SLACK))
+        dt = sim.dt
+        if when <= sim.time:
+            return sim.step_count
+        if not math.isfinite(dt):  # no spheres yet to set the default dt: look again next step
+            return sim.step_count + 1
+        return sim.step_count + max(0, math.ceil((when - sim.time) / dt - _STEP_SLACK))
 
     def act(self, sim) -> None:
         """Insert what is due at this event (and what earlier events left pending)."""
         interval = self._resolve_interval(sim)
-        reached = math.floor((sim.time - self.start) / interval + _STEP_SLACK * sim.dt / interval)
+        slack = _STEP_SLACK * sim.dt if math.isfinite(sim.dt) else 0.0
+        reached = math.floor((sim.time - self.start + slack) / interval)
         event = max(self._event, reached)
         due = self._due(self._target(event))
         self._event = event + 1
@@ -223,7 +228,11 @@ class Inserter:
             self._pending = 0
             return
         radii = self._head(due).copy()
-        positions, placed = self._place(sim, radii)
+        # spheres carried over go first, then the new ones; largest first within each
+        carried = min(self._pending, due)
+        order = np.concatenate([np.argsort(-radii[:carried], kind="stable"),
+                                carried + np.argsort(-radii[carried:], kind="stable")])
+        positions, placed = self._place(sim, radii, order)
         if placed.any():
             ids = sim.add_spheres(
                 positions[placed], radii[placed], self.material,
@@ -238,9 +247,9 @@ class Inserter:
     def close(self, sim) -> None:
         """Nothing to flush."""
 
-    def _place(self, sim, radii):
+    def _place(self, sim, radii, order):
         """Positions for ``radii`` in the region clear of the simulation's spheres (NaN where no
-        room was found) and which were placed; the largest spheres are placed first."""
+        room was found) and which were placed, trying them in ``order``."""
         region = self.region
         largest = float(radii.max())
         existing_x = sim.positions if sim.size else np.zeros((0, 3))
@@ -251,12 +260,16 @@ class Inserter:
         grid = _CellGrid(lower, upper, max(2 * largest, reach) * (1 + 2 * _GAP),
                          int(near.sum()) + len(radii))
         grid.add(existing_x[near], existing_r[near])
-        order = np.argsort(-radii, kind="stable")
         x, ok = _sequential_addition(region, radii[order], self._place_rng, grid, _ATTEMPTS_PER_EVENT)
         positions = np.full((len(radii), 3), np.nan)
         placed = np.zeros(len(radii), dtype=bool)
         positions[order], placed[order] = x, ok
         return positions, placed
+
+    def _attach(self, sim) -> None:
+        """Called by :meth:`Simulation.add_inserter`: the material joins the scene now, so a
+        material of the other contact law is refused at once, not at the first event."""
+        sim._material(self.material, "material", scene=True)
 
     # ---- checkpoints -------------------------------------------------------------------------------
     def _config(self, sim) -> dict:

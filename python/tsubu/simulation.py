@@ -4,13 +4,12 @@ from __future__ import annotations
 
 import functools
 import math
-import sys
 import threading
 import time as _time
 
 import numpy as np
 
-from . import _checks, _core
+from . import _checks, _core, hooks
 from .material import Material, _check_field, _check_uniform_range, _from_core, _to_core
 
 
@@ -153,8 +152,10 @@ class Simulation:
                  rebuild_every_step: bool = False, parallel_min: int = 2048):
         self._lock = threading.RLock()  # _one_thread_at_a_time
         self._running = False  # True while the engine runs (and the GIL is released)
+        self._in_run = False  # True from the start of run to its return (hooks act meanwhile)
         self._core = _core.Simulation()
         self._materials: list[Material] = []
+        self._inserters: list = []  # hooks kept across runs (add_inserter)
         self._material_index: dict[int, int] = {}
         self.gravity = gravity
         self.dt = dt
@@ -400,6 +401,25 @@ class Simulation:
                 return m
         raise KeyError(index)
 
+    def add_inserter(self, *args, **kwargs):
+        """Pour spheres into a region during runs; returns the :class:`tsubu.Inserter`.
+
+        The arguments are those of :class:`tsubu.Inserter` (region, rate, sizes, material,
+        velocity, ...). The inserter acts in every later run of this Simulation (before the
+        output hooks), and checkpoints keep its progress.
+        """
+        from .insert import Inserter
+
+        inserter = Inserter(*args, **kwargs)
+        inserter._attach(self)
+        self._inserters.append(inserter)
+        return inserter
+
+    @property
+    def inserters(self) -> list:
+        """The inserters added with :meth:`add_inserter`, in order."""
+        return list(self._inserters)
+
     # ---- time stepping -----------------------------------------------------------------------
     def critical_time_step(self) -> float:
         """The stability bound of the time step for this scene [s].
@@ -439,23 +459,62 @@ class Simulation:
         ``impact_speed`` if given, else twice the largest sphere speed now, at least 1 m/s."""
         return self._core.characteristic_speed()
 
-    def run(self, steps: int | None = None, time: float | None = None, progress: bool = False) -> "Simulation":
-        """Advance by ``steps`` steps or by ``time`` seconds (rounded to whole steps).
+    def run(self, steps: int | None = None, time: float | None = None, *, progress=None,
+            output=None, checkpoint=None, checkpoint_every: int | None = None,
+            checkpoint_keep: int = 3) -> "Simulation":
+        """Advance by ``steps`` steps or by ``time`` seconds (rounded to whole steps of the dt
+        at the start of the run).
 
-        Releases the GIL. Raises InstabilityError if the run goes unstable (the last good state
-        stays readable) and ValueError for a dt above the stability bound or initial overlaps.
-        ``progress=True`` prints progress to stderr. Returns the Simulation.
+        Parameters
+        ----------
+        steps : int, optional
+            Number of steps (>= 0). Give exactly one of ``steps`` and ``time``.
+        time : float, optional
+            Simulated time [s] (>= 0).
+        progress : bool or None, default None
+            Show a progress bar on stderr (tqdm: simulated time, steps/s, particle-steps/s and
+            time left). None: only on an interactive terminal (not in pipes, CI or notebooks),
+            for runs longer than 2 s, and only if tqdm is installed; True: always (ImportError
+            without tqdm); False: never.
+        output : hook or list of hooks, optional
+            Objects called between steps, such as :class:`tsubu.output.VTKOutput` (see
+            :mod:`tsubu.hooks`). The Simulation's inserters (:meth:`add_inserter`) run first.
+        checkpoint : str or path, optional
+            Where to save a checkpoint (:meth:`save`) when the run ends: when it finishes, on a
+            requested stop and on Ctrl-C (then before KeyboardInterrupt propagates); not after
+            an InstabilityError.
+        checkpoint_every : int, optional
+            Also save a checkpoint every this many steps (counted from step 0), to numbered
+            files beside ``checkpoint`` (``run.tsubu`` -> ``run.step000000001000.tsubu``).
+        checkpoint_keep : int, default 3
+            How many of the numbered checkpoints to keep (the newest).
 
-        A run stops early, at a step boundary, on Ctrl-C (SIGINT) or :meth:`request_stop`: Ctrl-C
-        is noticed within 20 ms of wall time plus one step and raises KeyboardInterrupt (any
+        Returns
+        -------
+        Simulation
+            self.
+
+        Raises
+        ------
+        InstabilityError
+            The run went unstable (the last good state stays readable).
+        ValueError
+            A dt above the stability bound, initial overlaps, or a bad argument.
+        KeyboardInterrupt
+            Ctrl-C (SIGINT) during the run.
+
+        Notes
+        -----
+        A run stops early, at a step boundary, on Ctrl-C or :meth:`request_stop`: Ctrl-C is
+        noticed within 20 ms of wall time plus one step and raises KeyboardInterrupt (any
         exception raised by a Python signal handler is raised the same way); a requested stop
         returns normally, with :attr:`stopped` True. Either way the state is that of the last
         completed step (positions, velocities, spins, contact history, ``step_count`` and
-        ``time`` agree), and running the remaining steps, ``run(steps=requested -
-        (step_count - step_count_before))``, gives the same bits as a run that never stopped.
-        Signals are checked only when run is called from the main thread (the only one Python
-        runs signal handlers on). While it runs, the Simulation refuses calls from other
-        threads (see the class's Threads section).
+        ``time`` agree), and running the remaining steps, ``run(steps=requested - (step_count -
+        step_count_before))``, gives the same bits as a run that never stopped. Signals are
+        checked only when run is called from the main thread (the only one Python runs signal
+        handlers on). While it runs, the Simulation refuses calls from other threads (see the
+        class's Threads section). Hooks run in the calling thread with the Simulation usable.
         """
         if (steps is None) == (time is None):
             raise TypeError("run needs exactly one of steps= or time=")
@@ -463,32 +522,72 @@ class Simulation:
             t = _checks.positive("time", time, allow_zero=True)
             steps = _steps_for(t, self.dt)
         steps = _checks.whole("steps", steps)
-        self._running = True
+        outputs = [] if output is None else list(output) if isinstance(output, (list, tuple)) else [output]
+        for k, hook in enumerate(outputs):
+            hooks.check_hook(hook, "output" if len(outputs) == 1 else f"output[{k}]")
+        path = None
+        if checkpoint is not None:
+            path = _checks.path("checkpoint", checkpoint)
+        periodic = []
+        if checkpoint_every is not None:
+            if path is None:
+                raise ValueError("checkpoint_every needs checkpoint= (the path beside which the "
+                                 "numbered checkpoints are written)")
+            every = _checks.whole("checkpoint_every", checkpoint_every, minimum=1)
+            keep = _checks.whole("checkpoint_keep", checkpoint_keep, minimum=1)
+            periodic = [hooks.PeriodicCheckpoint(path, every, keep)]
+        bar = hooks.progress_bar(self, steps, progress)
+        everything = list(self._inserters) + outputs + periodic
+        if self._in_run:
+            raise RuntimeError("Simulation.run called during the Simulation's own run (from a run "
+                               "hook): wait for run to return")
+        self._in_run = True
         try:
-            if not progress:
-                self._advance(steps)
-                return self
-            self._run_with_progress(steps)
+            self._run_hooks(self._core.step_count + steps, everything, bar)
+        except KeyboardInterrupt:
+            if path is not None:
+                self.save(path)
+            raise
         finally:
-            self._running = False
+            self._in_run = False
+            if bar is not None:
+                bar.close()
+            for hook in everything:
+                hook.close(self)
+        if path is not None:
+            self.save(path)
         return self
 
-    def _run_with_progress(self, steps: int) -> None:
-        chunk = max(1, steps // 50)
-        start = _time.perf_counter()
-        done = 0
-        try:
-            while done < steps:
-                asked = min(chunk, steps - done)
+    def _run_hooks(self, end: int, everything: list, bar) -> None:
+        """Steps to ``end``, with the hooks acting at the steps they ask for."""
+        while True:
+            now = self._core.step_count
+            target = end
+            for hook in everything:
+                due = hook.next_step(self)
+                if due is not None and due <= now:
+                    hook.act(self)
+                    due = hook.next_step(self)
+                    if due is not None and due <= now:
+                        raise RuntimeError(f"run hook {hook!r} acted at step {now} and asks for step "
+                                           f"{due} again: next_step must move on after act")
+                if due is not None and due < target:
+                    target = due
+            if now >= end:
+                return
+            if bar is not None:
+                target = min(target, bar.limit(now))
+            asked = target - now
+            started = _time.perf_counter()
+            self._running = True
+            try:
                 taken = self._advance(asked)
-                done += taken
-                rate = self._core.size * done / max(_time.perf_counter() - start, 1e-9)
-                print(f"\r[tsubu] step {done}/{steps}  t = {self._core.time:.6g} s  "
-                      f"{rate / 1e6:.2f} M particle-steps/s", end="", file=sys.stderr, flush=True)
-                if taken < asked:  # request_stop()
-                    break
-        finally:
-            print(file=sys.stderr)
+            finally:
+                self._running = False
+            if bar is not None:
+                bar.update(taken, _time.perf_counter() - started)
+            if taken < asked:  # request_stop()
+                return
 
     def _advance(self, steps: int) -> int:
         try:
@@ -510,7 +609,7 @@ class Simulation:
     def running(self) -> bool:
         """Whether a run of this Simulation is in progress (in any thread). Readable at any
         time, from any thread."""
-        return self._running
+        return self._in_run
 
     @property
     def stopped(self) -> bool:
@@ -683,7 +782,7 @@ class Simulation:
         return self._core.memory_bytes()
 
     def __repr__(self) -> str:
-        if self._running:  # its state is being written by the run
+        if self._in_run:  # its state is being written by the run
             return "tsubu.Simulation(running)"
         return (f"tsubu.Simulation({self.size} spheres, {self._core.plane_count} walls, "
                 f"t = {self.time:.6g} s, step {self.step_count})")

@@ -1,0 +1,152 @@
+"""What a run calls between its steps: the hook protocol, the progress bar, periodic checkpoints.
+
+A *hook* is any object with three methods; :meth:`tsubu.Simulation.run` takes them in its
+``output`` argument, and the inserters of :meth:`tsubu.Simulation.add_inserter` are hooks the
+Simulation keeps::
+
+    class Hook:
+        def next_step(self, sim) -> int | None:
+            '''The step count (>= sim.step_count) at which act() must next be called, or None.'''
+        def act(self, sim) -> None:
+            '''Called when sim.step_count equals what next_step returned: the state is that of a
+            completed step. Afterwards next_step must return a later step, or None.'''
+        def close(self, sim) -> None:
+            '''Called once when the run returns or raises.'''
+
+A run asks every hook for its next step before each stretch of steps, advances to the earliest
+one (or the end of the run), and lets the hooks due there act: inserters first, then output
+hooks in the order given, then the periodic checkpoint. Stretches are independent of the
+results: a run cut into stretches gives the same bits as one that is not.
+"""
+
+from __future__ import annotations
+
+import os
+import sys
+import time as _time
+from pathlib import Path
+from typing import Protocol
+
+
+class Hook(Protocol):
+    """The protocol of a run hook (see the module's docstring)."""
+
+    def next_step(self, sim) -> "int | None": ...
+
+    def act(self, sim) -> None: ...
+
+    def close(self, sim) -> None: ...
+
+
+def check_hook(hook, name: str = "output") -> None:
+    """TypeError naming ``name`` unless ``hook`` has the three methods of a hook."""
+    missing = [m for m in ("next_step", "act", "close") if not callable(getattr(hook, m, None))]
+    if missing:
+        raise TypeError(f"{name} must be a run hook (an object with next_step, act and close "
+                        f"methods, such as tsubu.output.VTKOutput), got {hook!r}: it has no "
+                        f"{', '.join(missing)}")
+
+
+def interactive() -> bool:
+    """Whether a progress bar belongs on stderr by default: a terminal, not CI, not a notebook."""
+    if os.environ.get("CI") or os.environ.get("TSUBU_NO_PROGRESS"):
+        return False
+    if "ipykernel" in sys.modules:
+        return False
+    try:
+        return sys.stderr.isatty()
+    except (AttributeError, ValueError):
+        return False
+
+
+class ProgressBar:
+    """A tqdm bar over the steps of a run, with simulated time and particle-steps per second.
+
+    ``delay``: seconds before the bar shows (a short run shows none). The run advances in
+    stretches of about ``refresh`` seconds of wall time between updates.
+    """
+
+    def __init__(self, sim, steps: int, delay: float, refresh: float = 0.2):
+        try:
+            from tqdm.auto import tqdm
+        except ImportError:
+            raise ImportError("progress=True needs tqdm: install it with "
+                              "pip install 'tsubu[progress]' (or pip install tqdm)") from None
+        self.sim = sim
+        self.refresh = refresh
+        self.bar = tqdm(total=steps, unit="step", delay=delay, dynamic_ncols=True,
+                        desc="tsubu", leave=True, file=sys.stderr)
+        self.start = _time.perf_counter()
+        self.first_step = sim.step_count
+        self.stretch = 1  # steps per stretch, grown to about `refresh` seconds each
+
+    def limit(self, now: int) -> int:
+        """The last step the next stretch may reach."""
+        return now + self.stretch
+
+    def update(self, taken: int, seconds: float) -> None:
+        self.bar.update(taken)
+        if taken > 0 and seconds > 0:
+            per_step = seconds / taken
+            self.stretch = max(1, min(int(self.refresh / per_step), 4 * self.stretch))
+        elapsed = max(_time.perf_counter() - self.start, 1e-9)
+        rate = self.sim.size * (self.sim.step_count - self.first_step) / elapsed
+        self.bar.set_postfix_str(f"t = {self.sim.time:.4g} s, {rate / 1e6:.3g} M particle-steps/s",
+                                 refresh=False)
+
+    def close(self) -> None:
+        self.bar.close()
+
+
+def progress_bar(sim, steps: int, progress) -> "ProgressBar | None":
+    """The bar a run shows: ``progress`` None (default) shows one, after 2 s, on an
+    interactive terminal when tqdm is installed; True always (after 0.5 s; ImportError without
+    tqdm); False never."""
+    if progress is None:
+        if not interactive():
+            return None
+        try:
+            return ProgressBar(sim, steps, delay=2.0)
+        except ImportError:
+            return None
+    if not isinstance(progress, bool):
+        raise TypeError(f"progress must be True, False or None, got {progress!r}")
+    return ProgressBar(sim, steps, delay=0.0) if progress else None
+
+
+def numbered(path: Path, step: int) -> Path:
+    """``run.tsubu`` at step 1200 -> ``run.step000000001200.tsubu`` (sorts by step)."""
+    return path.with_name(f"{path.stem}.step{step:012d}{path.suffix}")
+
+
+class PeriodicCheckpoint:
+    """A hook that saves a checkpoint every ``every`` steps to numbered files beside ``path``
+    (see :func:`numbered`), keeping the newest ``keep``."""
+
+    def __init__(self, path: Path, every: int, keep: int):
+        self.path = path
+        self.every = every
+        self.keep = keep
+        self.last = None
+
+    def next_step(self, sim) -> int:
+        now = sim.step_count
+        due = -(-now // self.every) * self.every
+        return due if due != self.last else due + self.every
+
+    def act(self, sim) -> None:
+        step = sim.step_count
+        sim.save(numbered(self.path, step))
+        self.last = step
+        stem, suffix = self.path.stem + ".step", self.path.suffix
+        old = sorted(p for p in self.path.parent.glob(f"{glob_escape(stem)}*{glob_escape(suffix)}")
+                     if p.name[len(stem):len(p.name) - len(suffix)].isdigit())
+        for p in old[:-self.keep]:
+            p.unlink(missing_ok=True)
+
+    def close(self, sim) -> None:
+        pass
+
+
+def glob_escape(text: str) -> str:
+    return "".join(f"[{c}]" if c in "*?[]" else c for c in text)
