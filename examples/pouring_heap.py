@@ -3,9 +3,11 @@
 Glass-like beads with log-normal radii (median 1 mm, sigma of ln r 0.2, truncated to
 0.7-1.4 mm) are poured from a narrow stream onto a rough floor, in a channel 8 mm wide whose
 side walls are frictionless (a quasi-2D heap: its flanks are straight lines a few grains long,
-cheap to measure). A ``tsubu.insert.Inserter`` places them, without overlap, at 2000 spheres/s
-in a box 25 mm above the floor, falling at 0.3 m/s; after the last one the heap settles until
-no grain moves faster than 5 mm/s. Then:
+cheap to measure). An inserter (``sim.add_inserter``, a ``tsubu.insert.Inserter``) places them
+during the run, without overlap, at 2000 spheres/s, in a box 6 mm long and 17 mm high, 25 mm above the floor,
+falling at 0.3 m/s; after the last one the heap settles until no grain moves faster than
+5 mm/s. The floor is rough (a pair override: friction 0.8, rolling friction 0.5, restitution
+0.2), as the layer of grains glued to the base in experiments. Then:
 
 - the angle of repose: straight lines fitted to the top surface h(x) of each flank between
   20 % and 80 % of the heap's height;
@@ -33,12 +35,11 @@ import numpy as np
 
 import tsubu
 from tsubu import fill
-from tsubu.insert import Inserter
 
 GRAVITY = 9.81  # m/s^2
 SIZES = fill.LogNormal(median_radius=1.0e-3, sigma=0.2, min_radius=0.7e-3, max_radius=1.4e-3)
 DENSITY = 2500.0  # kg/m^3
-STIFFNESS = 1e3  # N/m: overlaps under a 15-grain heap stay below 0.2 % of a radius
+STIFFNESS = 500.0  # N/m: overlaps under a 15-grain heap stay below 0.5 % of a radius
 FRICTION = 0.5
 ROLLING_FRICTION = 0.1
 RESTITUTION = 0.5
@@ -55,22 +56,6 @@ REST_SPEED = 0.005  # m/s
 
 def mean_diameter() -> float:
     return 2.0 * float(np.mean(SIZES.sample(100_000, np.random.default_rng(0))))
-
-
-def run_with_hooks(sim, steps: int, hooks) -> None:
-    """``sim.run(steps=steps)`` with ``hooks`` acting between steps as the run-loop contract of
-    tsubu.hooks says (each hook acts when its ``next_step`` is the current step, then the run
-    advances to the earliest next event). ``sim.add_inserter`` and ``sim.run(output=...)`` do
-    this inside the run; written out here so that the example runs on the core alone."""
-    end = sim.step_count + steps
-    while True:
-        for hook in hooks:
-            if hook.next_step(sim) == sim.step_count:
-                hook.act(sim)
-        if sim.step_count >= end:
-            return
-        upcoming = [n for n in (hook.next_step(sim) for hook in hooks) if n is not None]
-        sim.run(steps=min([end] + upcoming) - sim.step_count)
 
 
 def pour(count: int, seed: int, threads) -> tuple:
@@ -94,13 +79,14 @@ def pour(count: int, seed: int, threads) -> tuple:
     sim.add_plane(point=(0, 0, 0), normal=(0, 1, 0), material=smooth)
     sim.add_plane(point=(0, WIDTH, 0), normal=(0, -1, 0), material=smooth)
     source = fill.Box((-SOURCE_HALF_WIDTH, 0.0, SOURCE_HEIGHT),
-                      (SOURCE_HALF_WIDTH, WIDTH, SOURCE_HEIGHT + 4 * SIZES.max_radius))
-    inserter = Inserter(source, RATE, SIZES, grain, velocity=(0, 0, -SOURCE_SPEED), total=count,
-                        seed=seed)
-    pour_time = count / RATE
-    run_with_hooks(sim, math.ceil(pour_time / sim.dt), [inserter])
+                      (SOURCE_HALF_WIDTH, WIDTH, SOURCE_HEIGHT + 12 * SIZES.max_radius))
+    # The inserter acts between the steps of every run: an event every time a sphere takes to
+    # cross the source box, each placing what the rate makes due (what finds no room waits).
+    inserter = sim.add_inserter(source, RATE, SIZES, grain, velocity=(0, 0, -SOURCE_SPEED),
+                                total=count, seed=seed)
+    sim.run(time=count / RATE)
     while not inserter.finished:  # spheres still pending: the stream was blocked for a moment
-        run_with_hooks(sim, math.ceil(0.01 / sim.dt), [inserter])
+        sim.run(time=0.01)
     poured = sim.time
     # Settle: at least the fall from the source, then until no grain moves.
     sim.run(time=math.sqrt(2 * SOURCE_HEIGHT / GRAVITY))
@@ -120,16 +106,21 @@ def surface_profile(x, z, r, bin_width: float):
 
 
 def flank_fits(centres, top):
-    """Straight lines h = a + b x fitted to each flank between 20 % and 80 % of the peak height.
-    Returns [(angle_deg, a, b, x_used), ...] for the left and the right flank."""
+    """Straight lines h = a + b x fitted to each flank of the heap between 20 % and 80 % of its
+    height, walking out from the peak and stopping where the surface first drops below 20 % (so
+    that grains that rolled away from the heap do not count). Returns [(angle_deg, a, b,
+    x_used), ...] for the left and the right flank."""
     peak = int(np.argmax(top))
     height = top[peak]
     fits = []
-    for side in (slice(0, peak + 1), slice(peak, len(top))):
-        x, h = centres[side], top[side]
-        use = (h > 0.2 * height) & (h < 0.8 * height)
-        b, a = np.polyfit(x[use], h[use], 1)
-        fits.append((math.degrees(math.atan(abs(b))), a, b, x[use]))
+    for step in (-1, 1):
+        k, used = peak, []
+        while 0 <= k < len(top) and top[k] >= 0.2 * height:
+            if top[k] <= 0.8 * height:
+                used.append(k)
+            k += step
+        b, a = np.polyfit(centres[used], top[used], 1)
+        fits.append((math.degrees(math.atan(abs(b))), a, b, centres[used]))
     return fits
 
 
@@ -153,16 +144,16 @@ def packing_profile(x, z, r, centres, top, slice_height: float, depth: float):
         z1 = z0 + slice_height
         inside = top >= z1 + depth
         mids.append(0.5 * (z0 + z1))
-        if inside.sum() < 2:
-            fractions.append(math.nan)
-            continue
-        # The contiguous run of bins around the peak that is deep enough.
+        # The contiguous run of bins around the peak that is deep enough, at least 4 wide.
         peak = int(np.argmax(top))
         left = right = peak
         while left > 0 and inside[left - 1]:
             left -= 1
         while right < len(top) - 1 and inside[right + 1]:
             right += 1
+        if not inside[peak] or right - left + 1 < 4:
+            fractions.append(math.nan)
+            continue
         x_lo, x_hi = centres[left] - bin_width / 2, centres[right] + bin_width / 2
         counted = (x >= x_lo) & (x < x_hi)
         solid = float(np.sum(segment_volume(z[counted], r[counted], z0, z1)))
@@ -252,7 +243,7 @@ def plot(out: str, figure: str) -> None:
 def main(argv=None) -> dict:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--quick", action="store_true", help="300 beads: a test of a few seconds")
-    parser.add_argument("--count", type=int, default=None, help="beads to pour (default 800)")
+    parser.add_argument("--count", type=int, default=None, help="beads to pour (default 600)")
     parser.add_argument("--threads", type=int, default=None, help="OpenMP threads (default: all)")
     parser.add_argument("--seed", type=int, default=1, help="seed of the inserter")
     parser.add_argument("--out", default="output/pouring_heap", help="output folder")
@@ -260,7 +251,7 @@ def main(argv=None) -> dict:
     parser.add_argument("--no-figure", action="store_true", help="write the data only")
     args = parser.parse_args(argv)
     started = time.perf_counter()
-    count = args.count or (300 if args.quick else 800)
+    count = args.count or (300 if args.quick else 600)
     sim, inserter, poured = pour(count, args.seed, args.threads)
     summary = write_outputs(analyse(sim, inserter, poured, time.perf_counter() - started), args.out)
     if not args.no_figure:

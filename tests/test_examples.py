@@ -91,3 +91,30 @@ def test_column_collapse_run_out(tmp_path):
     assert np.all(final[:, 0] > 0) and final[:, 0].max() < s["gate_position"]
     assert s["run_out"] <= s["farthest_grain"] + 1e-12
     draw_figure(module, tmp_path)
+
+
+def test_pouring_heap(tmp_path):
+    module = load_example("pouring_heap")
+    s = module.main(["--quick", "--no-figure", "--out", str(tmp_path)])
+    assert s["at_rest"] and s["grains"] == s["inserted"] == 300
+    data = np.load(tmp_path / "pouring_heap.npz")
+    x, r = data["positions"], data["radii"]
+    assert np.all((r >= module.SIZES.min_radius) & (r <= module.SIZES.max_radius))
+    assert math.isclose(s["inserted_mass"], float(np.sum(module.DENSITY * 4 / 3 * math.pi * r ** 3)),
+                        rel_tol=1e-12)
+    assert np.all(x[:, 2] > 0.9 * r) and np.all((x[:, 1] > 0) & (x[:, 1] < module.WIDTH))
+    # A heap, not a layer: both flanks stand at an angle of repose of beads (20-35 degrees,
+    # within the noise of a 300-bead heap), and it is several grains high.
+    assert 12 < s["angle_left"] < 45 and 12 < s["angle_right"] < 45, s
+    assert s["heap_height"] > 4 * s["mean_diameter"]
+    # A random packing of beads between flat walls: looser than random close packing (0.64).
+    assert 0.45 < s["mean_packing_fraction"] < 0.64, s
+    draw_figure(module, tmp_path)
+
+
+def test_pouring_heap_slices_add_up_to_the_spheres():
+    module = load_example("pouring_heap")
+    zc, r = np.array([0.3, 1.0, 2.2]), np.array([0.5, 0.25, 1.0])
+    edges = np.linspace(-2.0, 4.0, 14)
+    total = sum(module.segment_volume(zc, r, a, b) for a, b in zip(edges[:-1], edges[1:]))
+    assert np.allclose(total, 4 / 3 * math.pi * r ** 3, rtol=1e-12)
