@@ -43,7 +43,7 @@ GRAVITY = 9.81  # m/s^2
 DIAMETER = 2e-3  # m, mean grain diameter d
 RADIUS_SPREAD = 0.1  # radii uniform in (1 +- 0.1) d/2: no crystalline packing
 DENSITY = 2500.0  # kg/m^3
-STIFFNESS = 2e3  # N/m: the overlap under a 30-grain column is ~0.3 % of d
+STIFFNESS = 2e3  # N/m: the overlap under a 30-grain column is below 0.1 % of d
 FRICTION = 0.5
 ROLLING_FRICTION = 0.1
 RESTITUTION = 0.5
@@ -150,12 +150,13 @@ def collapse(pack, length: float, aspect_ratio: float, width: float, threads: in
     speed = GATE_SPEED * math.sqrt(GRAVITY * height)
     parked = length * (1 + 3 * max(1.2 * aspect_ratio, 1.9 * aspect_ratio ** (2 / 3))) + 20 * DIAMETER
     travel = parked - length
+    released = sim.time
     sim.set_plane_motion(gate, velocity=(speed, 0, 0))
     sim.run(steps=max(1, math.ceil(travel / (speed * sim.dt))))
     sim.set_plane_motion(gate, velocity=(0, 0, 0))
-    released = sim.time
-    settle_time = run_until_rest(sim, minimum=3 * math.sqrt(height / GRAVITY),
-                                 maximum=40 * math.sqrt(height / GRAVITY))
+    run_until_rest(sim, minimum=3 * math.sqrt(height / GRAVITY),
+                   maximum=40 * math.sqrt(height / GRAVITY))
+    settle_time = sim.time - released
     final = sim.positions
     gate_x = float(sim.plane(gate)["point"][0])
     contacts = sim.contacts()

@@ -118,3 +118,32 @@ def test_pouring_heap_slices_add_up_to_the_spheres():
     edges = np.linspace(-2.0, 4.0, 14)
     total = sum(module.segment_volume(zc, r, a, b) for a, b in zip(edges[:-1], edges[1:]))
     assert np.allclose(total, 4 / 3 * math.pi * r ** 3, rtol=1e-12)
+
+
+SCENES = EXAMPLES / "scenes"
+
+
+@pytest.mark.parametrize("name, spheres", [("oblique_collision", 2), ("pouring_heap", 0),
+                                           ("column_collapse", 449)])
+def test_example_scene_files_load(name, spheres, tmp_path):
+    scene_module = pytest.importorskip("tsubu.scene")
+    scene = scene_module.load_scene(SCENES / f"{name}.toml", output_directory=tmp_path)
+    assert scene.simulation.size == spheres
+    assert scene.end_time > 0
+
+
+def test_oblique_collision_scene_matches_the_script(tmp_path):
+    """The scene file's 30-degree impact gives the script's peak normal force."""
+    scene_module = pytest.importorskip("tsubu.scene")
+    scene = scene_module.load_scene(SCENES / "oblique_collision.toml", output_directory=tmp_path)
+    sim = scene.simulation
+    assert np.allclose(sim.positions, [[0, 0, 0], [0.02, 0, 0]], atol=1e-15)
+    peak = 0.0
+    while sim.time < scene.end_time - 0.5 * sim.dt:
+        sim.run(steps=1)
+        c = sim.contacts()
+        if len(c["i"]):
+            peak = max(peak, -float(c["force"][0, 0]))  # almost along -x: the line of centres
+    module = load_example("oblique_collision")
+    _, f_ref, _ = module.hertz_impact(math.cos(math.radians(30.0)))
+    assert abs(peak / f_ref.max() - 1) < 2e-3
