@@ -14,9 +14,10 @@ Coulomb's limit mu F_n:
 
 Run:  python examples/oblique_collision.py [--quick] [--out DIR] [--figure PNG | --no-figure]
 
-Writes DIR/oblique_collision.csv (one row per step in contact: angle, time, overlap, normal and
-tangential force) and DIR/oblique_collision.json (the summary printed at the end), then the
-figure (matplotlib, headless). docs/examples.md shows the figure and the timings.
+Both slip rules of tsubu are run: "truncate" (LAMMPS, LIGGGHTS) and "frozen" (the default).
+Writes DIR/oblique_collision_<rule>.csv (one row per step in contact: angle, time, overlap,
+normal and tangential force), DIR/oblique_collision.json (the summary printed at the end), then
+the figure (matplotlib, headless). docs/examples.md shows the figure and the timings.
 """
 
 from __future__ import annotations
