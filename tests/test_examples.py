@@ -1,0 +1,149 @@
+"""The examples in examples/, each in its reduced --quick mode: they run, write their output, and
+their physics result holds (a few seconds each). The figures need matplotlib (the bench extra):
+drawn from the written output when it is installed."""
+
+from __future__ import annotations
+
+import importlib.util
+import json
+import math
+import pathlib
+
+import numpy as np
+import pytest
+
+EXAMPLES = pathlib.Path(__file__).resolve().parent.parent / "examples"
+
+
+def load_example(name: str):
+    """The example script as a module (examples/ is not a package)."""
+    spec = importlib.util.spec_from_file_location(f"tsubu_example_{name}", EXAMPLES / f"{name}.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+def draw_figure(module, out: pathlib.Path) -> None:
+    """The figure from the output folder alone, when matplotlib is there."""
+    pytest.importorskip("matplotlib")
+    figure = out / "figure.png"
+    module.plot(str(out), str(figure))
+    assert figure.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+@pytest.fixture(scope="module")
+def oblique(tmp_path_factory):
+    out = tmp_path_factory.mktemp("oblique_collision")
+    module = load_example("oblique_collision")
+    return module, module.main(["--quick", "--no-figure", "--out", str(out)]), out
+
+
+def test_oblique_collision_normal_force_is_hertz(oblique):
+    module, summary, out = oblique
+    assert set(summary) == {f"{rule} {a:g}" for rule in module.SLIP_RULES for a in module.ANGLES}
+    for key, s in summary.items():
+        # Head-on (10 and 30 degrees) the peak is Hertz's to 0.1 %; at 75 degrees the line of
+        # centres turns during the contact and the normal approach slows: 0.6 % below.
+        assert abs(s["peak_force_error"]) < (0.01 if key.endswith(" 75") else 1e-3), (key, s)
+        # The duration is counted in steps of t_c/50.
+        assert abs(s["duration_error"]) <= 1.5 / 50, (key, s)
+
+
+def test_oblique_collision_friction_obeys_coulomb(oblique):
+    module, summary, out = oblique
+    for key, s in summary.items():
+        assert s["max_friction_ratio"] <= 1.0 + 1e-9, (key, s)
+    # Beyond the rigid-body threshold (64.5 degrees) the contact slides throughout; at 10
+    # degrees it sticks most of the time and the tangential force reverses.
+    assert summary["truncate 75"]["sliding_fraction"] == 1.0
+    assert summary["frozen 75"]["sliding_fraction"] > 0.9
+    for rule in module.SLIP_RULES:
+        assert summary[f"{rule} 10"]["sliding_fraction"] < 0.2
+        assert summary[f"{rule} 10"]["force_reverses"]
+        assert not summary[f"{rule} 75"]["force_reverses"]
+
+
+def test_oblique_collision_output_files(oblique):
+    module, summary, out = oblique
+    assert json.loads((out / "oblique_collision.json").read_text()) == summary
+    for rule in module.SLIP_RULES:
+        data = np.loadtxt(out / f"oblique_collision_{rule}.csv", delimiter=",", skiprows=1)
+        assert sorted(np.unique(data[:, 0])) == sorted(module.ANGLES)
+        assert np.all(data[:, 2] >= 0) and np.all(np.isfinite(data))
+        peak = max(data[data[:, 0] == 10.0, 3])
+        assert math.isclose(peak, summary[f"{rule} 10"]["peak_normal_force"])
+    draw_figure(module, out)
+
+
+def test_column_collapse_run_out(tmp_path):
+    module = load_example("column_collapse")
+    (s,) = module.main(["--quick", "--no-figure", "--out", str(tmp_path)])
+    assert s["at_rest"] and not s["gate_touched"]
+    assert 0.8 < s["aspect_ratio"] < 1.05
+    # Lube et al. (2005): 1.2 a. This column is 6 grains wide (finite size): within a factor 2.
+    assert 0.6 * s["aspect_ratio"] < s["normalised_run_out"] < 2.4 * s["aspect_ratio"], s
+    # The column has spread: lower than it was, and no grain left the channel.
+    assert s["final_height"] < 0.95 * s["height"]
+    data = np.load(tmp_path / "column_a1.npz")
+    final, radii = data["final_positions"], data["radii"]
+    assert len(final) == s["grains"] and np.all(final[:, 2] > 0)
+    assert np.all((final[:, 1] > 0) & (final[:, 1] < s["width"]))
+    assert np.all(final[:, 0] > 0) and final[:, 0].max() < s["gate_position"]
+    assert s["run_out"] <= s["farthest_grain"] + 1e-12
+    draw_figure(module, tmp_path)
+
+
+def test_pouring_heap(tmp_path):
+    module = load_example("pouring_heap")
+    s = module.main(["--quick", "--no-figure", "--out", str(tmp_path)])
+    assert s["at_rest"] and s["grains"] == s["inserted"] == 300
+    data = np.load(tmp_path / "pouring_heap.npz")
+    x, r = data["positions"], data["radii"]
+    assert np.all((r >= module.SIZES.min_radius) & (r <= module.SIZES.max_radius))
+    assert math.isclose(s["inserted_mass"], float(np.sum(module.DENSITY * 4 / 3 * math.pi * r ** 3)),
+                        rel_tol=1e-12)
+    assert np.all(x[:, 2] > 0.9 * r) and np.all((x[:, 1] > 0) & (x[:, 1] < module.WIDTH))
+    # A heap, not a layer: both flanks stand at an angle of repose of beads (20-35 degrees,
+    # within the noise of a 300-bead heap), and it is several grains high.
+    assert 12 < s["angle_left"] < 45 and 12 < s["angle_right"] < 45, s
+    assert s["heap_height"] > 4 * s["mean_diameter"]
+    # A random packing of beads between flat walls: looser than random close packing (0.64).
+    assert 0.45 < s["mean_packing_fraction"] < 0.64, s
+    draw_figure(module, tmp_path)
+
+
+def test_pouring_heap_slices_add_up_to_the_spheres():
+    module = load_example("pouring_heap")
+    zc, r = np.array([0.3, 1.0, 2.2]), np.array([0.5, 0.25, 1.0])
+    edges = np.linspace(-2.0, 4.0, 14)
+    total = sum(module.segment_volume(zc, r, a, b) for a, b in zip(edges[:-1], edges[1:]))
+    assert np.allclose(total, 4 / 3 * math.pi * r ** 3, rtol=1e-12)
+
+
+SCENES = EXAMPLES / "scenes"
+
+
+@pytest.mark.parametrize("name, spheres", [("oblique_collision", 2), ("pouring_heap", 0),
+                                           ("column_collapse", 449)])
+def test_example_scene_files_load(name, spheres, tmp_path):
+    scene_module = pytest.importorskip("tsubu.scene")
+    scene = scene_module.load_scene(SCENES / f"{name}.toml", output_directory=tmp_path)
+    assert scene.simulation.size == spheres
+    assert scene.end_time > 0
+
+
+def test_oblique_collision_scene_matches_the_script(tmp_path):
+    """The scene file's 30-degree impact gives the script's peak normal force."""
+    scene_module = pytest.importorskip("tsubu.scene")
+    scene = scene_module.load_scene(SCENES / "oblique_collision.toml", output_directory=tmp_path)
+    sim = scene.simulation
+    assert np.allclose(sim.positions, [[0, 0, 0], [0.02, 0, 0]], atol=1e-15)
+    peak = 0.0
+    while sim.time < scene.end_time - 0.5 * sim.dt:
+        sim.run(steps=1)
+        c = sim.contacts()
+        if len(c["i"]):
+            peak = max(peak, -float(c["force"][0, 0]))  # almost along -x: the line of centres
+    module = load_example("oblique_collision")
+    _, f_ref, _ = module.hertz_impact(math.cos(math.radians(30.0)))
+    assert abs(peak / f_ref.max() - 1) < 2e-3
