@@ -142,9 +142,9 @@ class Simulation:
         that the default dt stays the same from one run to the next.
     slip_rule : {"frozen", "truncate"}
         What a slipping contact does. "frozen" (default): the notes' (1.17)-(1.18), force
-        mu |f_n| against the slip velocity, stored displacement kept. "truncate": LAMMPS's
+        ``mu abs(f_n)`` against the slip velocity, stored displacement kept. "truncate": LAMMPS's
         gran/hooke/history and the shared reference scene's: the spring force is scaled to
-        mu |f_n| in its own direction and the displacement truncated to match (needs
+        ``mu abs(f_n)`` in its own direction and the displacement truncated to match (needs
         tangential_history="rotate"); use it to compare with those codes digit for digit.
     max_overlap : float
         A run stops with :class:`InstabilityError` when an overlap exceeds this fraction of the
@@ -232,7 +232,7 @@ class Simulation:
 
     @property
     def dt(self) -> float:
-        """The time step [s] the next run uses: the one set, or :meth:`default_time_step`.
+        """The time step [s] the next run uses (the one set, or :meth:`default_time_step`).
         Assignable: a float > 0, or None for the default."""
         return self._core.time_step()
 
@@ -247,8 +247,10 @@ class Simulation:
 
     @property
     def threads(self) -> int:
-        """OpenMP threads runs may use (0: OpenMP's default, all cores). Assignable: an integer
-        in [1, 4096], or None for the default; results are the same bits for any count."""
+        """OpenMP threads runs may use, 0 for OpenMP's default (all cores).
+
+        Assignable: an integer in [1, 4096], or None for the default. Results are the same bits
+        for any count."""
         return self._core.threads
 
     @threads.setter
@@ -264,8 +266,10 @@ class Simulation:
 
     @property
     def threads_used(self) -> int:
-        """Threads a run of this scene uses: 1 below ``parallel_min`` spheres (or in a build
-        without OpenMP), else ``threads`` or OpenMP's default."""
+        """Threads a run of this scene uses (read-only).
+
+        1 below :attr:`parallel_min` spheres (or in a build without OpenMP), else
+        :attr:`threads` or OpenMP's default."""
         return self._core.threads_used()
 
     @property
@@ -455,8 +459,12 @@ class Simulation:
 
         Raises
         ------
-        TypeError, ValueError, MemoryError
-            As :meth:`add_spheres`.
+        TypeError
+            For non-numbers or a material that is not a :class:`Material`.
+        ValueError
+            For a radius <= 0, wrong shapes or non-finite values (as :meth:`add_spheres`).
+        MemoryError
+            When no memory is left for one more sphere.
         """
         ids = self.add_spheres(
             [_checks.vec3("position", position)], _checks.positive("radius", radius), material,
