@@ -74,6 +74,18 @@ def _reference_modules() -> list[str]:
                   if directive == "automodule" and target != "tsubu")
 
 
+def _listed_members() -> dict[str, list[str]]:
+    """The modules whose automodule lists its members (``:members: a, b``): those members."""
+    listed = {}
+    for page in API_PAGES.rglob("*.rst"):
+        text = page.read_text(encoding="utf-8")
+        for module, options in re.findall(r"^\.\. automodule:: (\S+)\n((?:[ \t]+:.*\n)*)", text, re.M):
+            members = re.search(r":members:[ \t]*(\S.*)", options)
+            if members:
+                listed[module] = [m.strip() for m in members.group(1).split(",")]
+    return listed
+
+
 def _public_modules() -> list[types.ModuleType]:
     """The modules in ``tsubu.__all__``, and those the reference pages document (those not
     written yet left out: they are in no ``__all__``)."""
@@ -90,7 +102,11 @@ def _public_modules() -> list[types.ModuleType]:
 
 
 def _public_names_of(module: types.ModuleType) -> list[str]:
-    """The module's ``__all__``, or else the public names it defines itself."""
+    """The members its reference page lists, or else the module's ``__all__``, or else the
+    public names it defines itself."""
+    listed = _listed_members()
+    if module.__name__ in listed:
+        return listed[module.__name__]
     if hasattr(module, "__all__"):
         return list(module.__all__)
     return sorted(n for n, v in vars(module).items() if not n.startswith("_")
@@ -157,8 +173,9 @@ def test_every_public_name_has_a_docstring(qualname, obj, module):
     assert _own_doc(obj), f"{qualname} has no docstring"
 
 
-def _signature_parameters(obj) -> list[str]:
-    """The parameter names a caller writes (self, cls and the private ones left out)."""
+def _signature_parameters(obj, forwarded: bool = False) -> list[str]:
+    """The parameter names a caller writes (self, cls and the private ones left out; ``*args``
+    and ``**kwargs`` only with ``forwarded``)."""
     if isinstance(obj, type):
         if issubclass(obj, tuple) and hasattr(obj, "_fields"):  # a NamedTuple: its fields
             return list(obj._fields)
@@ -170,7 +187,12 @@ def _signature_parameters(obj) -> list[str]:
     except (TypeError, ValueError):  # a builtin without a signature
         return []
     return [p.name for p in signature.parameters.values()
-            if p.name not in ("self", "cls") and not p.name.startswith("_")]
+            if p.name not in ("self", "cls") and not p.name.startswith("_")
+            and (forwarded or p.kind not in (p.VAR_POSITIONAL, p.VAR_KEYWORD))]
+
+
+# The run-loop hook protocol (python/tsubu/hooks.py documents its one argument, the Simulation).
+HOOK_METHODS = ("next_step", "act", "close")
 
 
 _SECTION = re.compile(r"^(Parameters|Other Parameters)\n-+\n(.*?)(?=\n\s*\n[^\n]+\n-+\n|\Z)",
@@ -205,12 +227,17 @@ def test_docstrings_describe_the_real_parameters(qualname, obj):
     parameter that does not exist (a renamed argument leaves none behind)."""
     doc = _own_doc(obj)
     parameters = _signature_parameters(obj)
+    if qualname.rsplit(".", 1)[1] in HOOK_METHODS and parameters == ["sim"]:
+        parameters = []
     missing = [p for p in parameters if not re.search(rf"\b{re.escape(p)}\b", doc)]
     assert not missing, f"{qualname}: the docstring does not mention {missing}"
     documented = _documented_parameters(doc)
     if documented:
-        stale = [p for p in documented if p not in parameters]
-        assert not stale, f"{qualname}: the Parameters section names {stale}, not in {parameters}"
+        # (*args and **kwargs need not be mentioned, as they may be forwarded, but may be.)
+        real = _signature_parameters(obj, forwarded=True)
+        stale = [p for p in documented if p not in real]
+        assert not stale, (f"{qualname}: the Parameters section names {stale}, not in {real} (a "
+                           "line of prose at the entries' indentation reads as an entry)")
 
 
 # Roles (:meth:`x`), literals (``a: b``) and links, in which napoleon ignores colons.
