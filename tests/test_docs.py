@@ -195,22 +195,35 @@ def _signature_parameters(obj, forwarded: bool = False) -> list[str]:
 HOOK_METHODS = ("next_step", "act", "close")
 
 
-_SECTION = re.compile(r"^(Parameters|Other Parameters)\n-+\n(.*?)(?=\n\s*\n[^\n]+\n-+\n|\Z)",
+_SECTION = re.compile(r"^(Parameters|Other Parameters)\n-+\n(.*?)(?=\n[^\n]+\n-{3,}\n|\Z)",
                       re.S | re.M)
-# "name : type", "a, b : type", "**kwargs" (lines of prose are not entries).
-_ENTRY = re.compile(r"^(\*{0,2}\w+(?:\s*,\s*\*{0,2}\w+)*)\s*(?::|$)")
+# Roles (:meth:`x`), literals (``a: b``) and links, in which napoleon ignores colons.
+_NOT_A_FIELD = re.compile(r":[\w:.+-]+:`[^`]*`|``.+?``|`[^`]*`")
+_BARE_COLON = re.compile(r"(?<!:):(?!:)")
+
+
+def _field_name(line: str) -> str:
+    """What napoleon takes for the name of the entry a line starts: the text before its first
+    colon outside roles and literals (all of it when there is none)."""
+    masked = _NOT_A_FIELD.sub(lambda m: "x" * len(m.group()), line)
+    colon = _BARE_COLON.search(masked)
+    return (line[:colon.start()] if colon else line).strip()
 
 
 def _documented_parameters(doc: str) -> list[str]:
-    """The names of the entries of the docstring's numpy-style Parameters sections."""
+    """The names of the entries of the docstring's numpy-style Parameters sections, as napoleon
+    reads them: every line at the entries' indentation starts an entry, up to the next section
+    header, so a paragraph of prose there is read as an entry too (and rendered as one)."""
     doc = inspect.cleandoc(doc)
     names = []
     for match in _SECTION.finditer(doc):
         for line in match.group(2).splitlines():
             if line and not line[0].isspace():
-                entry = _ENTRY.match(line)
-                if entry:
-                    names += [n.strip().lstrip("*") for n in entry.group(1).split(",")]
+                name = _field_name(line)
+                if re.fullmatch(r"\*{0,2}\w+(\s*,\s*\*{0,2}\w+)*", name):
+                    names += [n.strip().lstrip("*") for n in name.split(",")]
+                else:
+                    names.append(name)
     return names
 
 
@@ -238,10 +251,6 @@ def test_docstrings_describe_the_real_parameters(qualname, obj):
         stale = [p for p in documented if p not in real]
         assert not stale, (f"{qualname}: the Parameters section names {stale}, not in {real} (a "
                            "line of prose at the entries' indentation reads as an entry)")
-
-
-# Roles (:meth:`x`), literals (``a: b``) and links, in which napoleon ignores colons.
-_NOT_A_FIELD = re.compile(r":[\w:.+-]+:`[^`]*`|``.+?``|`[^`]*`")
 
 
 @pytest.mark.parametrize("qualname, prop", [pytest.param(q, o, id=q) for q, o, _ in
