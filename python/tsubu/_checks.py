@@ -1,4 +1,11 @@
-"""Input checks shared by the public API: every message names the argument and the bad value."""
+"""Input checks shared by the public API: every message names the argument and the bad value.
+
+Each check takes the argument's name (as the user wrote it, or a path such as
+``materials.glass.restitution``) and the value, and returns the value converted (a float, an
+int, a float64 array copied from the input) or raises TypeError (not a number, a bool, a
+string where a number is expected) or ValueError (a number out of range, a wrong shape, a
+non-finite value).
+"""
 
 from __future__ import annotations
 
@@ -11,7 +18,8 @@ from . import _core
 
 
 def _real(name: str, value) -> float:
-    """A real number (not a bool) as a float; an integer beyond the range of floats is refused."""
+    """A real number (not a bool) as a float: TypeError for anything else, ValueError for an
+    integer beyond the range of floats."""
     if isinstance(value, bool) or not isinstance(value, numbers.Real):
         raise TypeError(f"{name} must be a real number, got {value!r}")
     try:
@@ -21,7 +29,8 @@ def _real(name: str, value) -> float:
 
 
 def positive(name: str, value, *, allow_zero: bool = False) -> float:
-    """A finite real number > 0 (or >= 0 with ``allow_zero``)."""
+    """A finite real number > 0 (or >= 0 with ``allow_zero``), as a float; TypeError for a
+    non-number, ValueError for a number out of range."""
     v = _real(name, value)
     if not math.isfinite(v) or v < 0 or (v == 0 and not allow_zero):
         bound = ">= 0" if allow_zero else "> 0"
@@ -30,6 +39,8 @@ def positive(name: str, value, *, allow_zero: bool = False) -> float:
 
 
 def in_range(name: str, value, lo: float, hi: float, *, lo_open: bool, hi_open: bool) -> float:
+    """A finite real number in the interval from ``lo`` to ``hi`` (each end open or closed), as a
+    float; ValueError names the interval, e.g. "restitution must be in (0, 1], got 1.5"."""
     v = _real(name, value)
     ok = math.isfinite(v) and (v > lo if lo_open else v >= lo) and (v < hi if hi_open else v <= hi)
     if not ok:
@@ -46,8 +57,8 @@ BYTES_PER_SPHERE = 256
 
 
 def fits_in_memory(name: str, count: int, what: str = "spheres") -> None:
-    """MemoryError, before anything is allocated, when ``count`` spheres cannot fit in the memory
-    the process can still use."""
+    """MemoryError, before anything is allocated, when ``count`` spheres (or rows: ``what``)
+    cannot fit in the memory the process can still use (BYTES_PER_SPHERE each)."""
     available = _core.available_memory()
     need = count * BYTES_PER_SPHERE
     if need > available:
@@ -80,7 +91,8 @@ def _float_array(name: str, value, expected: str) -> np.ndarray:
 
 
 def vec3(name: str, value) -> tuple[float, float, float]:
-    """A finite 3-vector."""
+    """A finite 3-vector as a tuple of 3 floats; TypeError for non-numbers, ValueError for
+    another shape or a non-finite component."""
     a = _float_array(name, value, "a sequence of 3 numbers")
     if a.shape != (3,):
         raise ValueError(f"{name} must have 3 components, got shape {a.shape}: {value!r}")
@@ -91,7 +103,8 @@ def vec3(name: str, value) -> tuple[float, float, float]:
 
 def points(name: str, value, n: int | None = None) -> np.ndarray:
     """An (n, 3) array of finite floats, copied; a single 3-vector is promoted to shape (1, 3)
-    and an empty sequence to shape (0, 3)."""
+    and an empty sequence to shape (0, 3). ``n`` None accepts any number of rows. TypeError for
+    non-numbers, ValueError for another shape or a non-finite row (named by its index)."""
     a = _float_array(name, value, "an array of shape (N, 3)")
     if a.ndim == 1 and a.shape == (3,):
         a = a.reshape(1, 3)
@@ -109,7 +122,8 @@ def points(name: str, value, n: int | None = None) -> np.ndarray:
 
 
 def radii(name: str, value, n: int) -> np.ndarray:
-    """A scalar or an (n,) array of finite radii > 0."""
+    """A scalar or an (n,) array of finite radii > 0, as an (n,) float array (a scalar is
+    repeated); ValueError names the first bad entry."""
     a = _float_array(name, value, f"a number or an array of shape ({n},)")
     if a.ndim == 0:
         a = np.full(n, float(a))
@@ -123,7 +137,8 @@ def radii(name: str, value, n: int) -> np.ndarray:
 
 
 def choice(name: str, value, options) -> str:
-    """One of the names in ``options`` (for the string-valued arguments, ``_core.choices``)."""
+    """One of the names in ``options`` (for the string-valued arguments, ``_core.choices``);
+    ValueError lists the options."""
     if not isinstance(value, str) or value not in options:  # (an array would compare elementwise)
         names = [f"'{o}'" for o in options]
         listing = ", ".join(names[:-1]) + " or " + names[-1] if len(names) > 1 else names[0]
@@ -132,7 +147,8 @@ def choice(name: str, value, options) -> str:
 
 
 def whole(name: str, value, *, minimum: int = 0, maximum: int = 2**62) -> int:
-    """An integer (not a bool) in [minimum, maximum]."""
+    """An integer (not a bool) in [minimum, maximum], as an int; TypeError for a non-integer
+    (a float too), ValueError out of range."""
     if isinstance(value, bool) or not isinstance(value, numbers.Integral):
         raise TypeError(f"{name} must be an integer, got {value!r}")
     if value < minimum:

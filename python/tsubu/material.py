@@ -12,7 +12,8 @@ from . import _checks, _core
 class Material:
     """Contact and bulk parameters of one material (SI units).
 
-    Every sphere and wall has a material. A material follows one of two contact laws:
+    Every sphere and wall has a material. A Material is immutable (a frozen dataclass: its
+    fields are read as attributes, with the defaults below filled in) and compared by identity. A material follows one of two contact laws:
 
     * **linear** (Kelvin-Voigt, the default): give ``kn`` (and optionally ``kt``);
     * **Hertz-Mindlin**: give ``youngs_modulus`` (and ``poisson_ratio``). The normal force is
@@ -22,7 +23,7 @@ class Material:
       spheres and walls mix the two kinds.
 
     The parameters of a contact between two materials are mixed once, when a run starts (see
-    ``Simulation.set_pair`` to override a pair):
+    :meth:`Simulation.set_pair` to override a pair):
 
     * ``kn``, ``kt``: harmonic mean ``2 a b / (a + b)`` (two half-springs in series; equal
       materials keep their own value);
@@ -35,7 +36,7 @@ class Material:
     Parameters
     ----------
     density : float
-        Mass density [kg/m^3], > 0. Unused for walls.
+        Mass density [kg/m^3], > 0. Default 2500 (glass). Unused for walls.
     kn : float or None
         Normal spring stiffness [N/m], > 0 (linear Kelvin-Voigt law, eq. 1.6). Default 1e3 for a
         linear material; None (unused) for a Hertzian one.
@@ -49,7 +50,7 @@ class Material:
         Poisson's ratio nu in (-1, 0.5] of a Hertzian material. Default 0.3 when
         ``youngs_modulus`` is given; giving it without ``youngs_modulus`` is a ValueError.
     restitution : float
-        Normal coefficient of restitution e in (0, 1]. Linear law: the normal dashpot is
+        Normal coefficient of restitution e in (0, 1]. Default 0.5. Linear law: the normal dashpot is
         ``eta_n = -2 ln(e) sqrt(m_eff kn / (pi^2 + ln^2 e))`` (eq. B.9) with the reduced mass
         ``m_eff = m_i m_j / (m_i + m_j)`` of the pair (walls: ``m_i``), so every contact
         rebounds with e. The normal force is not clipped at zero (B.9 assumes it). Hertzian:
@@ -57,10 +58,10 @@ class Material:
         ``beta = ln e / sqrt(ln^2 e + pi^2)`` (or, with ``Simulation(hertz_force="repulsive")``,
         the dashpot that gives e with a force clipped at zero).
     friction : float
-        Coulomb friction coefficient mu >= 0 (eqs. 1.17-1.18). 0 makes contacts frictionless:
+        Coulomb friction coefficient mu >= 0 (eqs. 1.17-1.18). Default 0.5. 0 makes contacts frictionless:
         the run then uses a specialisation with no tangential code or history.
     rolling_friction : float
-        Rolling friction coefficient mu_r >= 0 (eq. 1.20), dimensionless.
+        Rolling friction coefficient mu_r >= 0 (eq. 1.20), dimensionless. Default 0.
     tangential_damping : float
         Tangential dashpot as a fraction of the normal one, ``eta_t = tangential_damping *
         eta_n`` (eq. 1.11), >= 0. Default 0, as in the shared reference scene and LAMMPS's
@@ -72,14 +73,25 @@ class Material:
         materials combine as sqrt(sigma_a^2 + sigma_b^2).
     roughness_distribution : {"normal", "uniform"}
         Distribution of dG: zero-mean normal with standard deviation sigma, truncated to
-        |dG| < 90 degrees (default), or uniform on [-sqrt(3) sigma, sqrt(3) sigma] (same
+        ``abs(dG) < 90`` degrees (default), or uniform on [-sqrt(3) sigma, sqrt(3) sigma] (same
         standard deviation).
     shadow : {"reject", "weighted", "none"}
         Shadow effect at walls (Sommerfeld & Huber 1999): "reject" (default) redraws tilts the
         sphere could not meet (dG < -gamma in the plane of incidence); "weighted" also weights
         the accepted tilts by sin(gamma + dG); "none" keeps every draw.
     name : str, optional
-        A label for printing.
+        A label for printing and error messages. Default None.
+
+    Raises
+    ------
+    TypeError
+        For a parameter that is not a real number (a bool, a string), or a name that is not a
+        string.
+    ValueError
+        For a parameter out of its range (the message names it and gives the range), both
+        ``kn``/``kt`` and ``youngs_modulus``, a ``poisson_ratio`` without ``youngs_modulus``, an
+        unknown ``roughness_distribution`` or ``shadow``, or a uniform roughness whose range
+        ``sqrt(3) roughness`` reaches 90 degrees.
     """
 
     density: float = 2500.0

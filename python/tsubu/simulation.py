@@ -18,8 +18,25 @@ from .material import Material, _check_field, _check_uniform_range, _from_core, 
 class InstabilityError(RuntimeError):
     """A run went unstable: a non-finite force, or an overlap beyond ``max_overlap`` of a radius.
 
-    ``step`` is the step that failed and ``particle`` the id of the sphere it names. The state of
-    the step before (positions, velocities, angular velocities) stays readable.
+    Raised by :meth:`Simulation.run`. The message says what went wrong (the quantity, the step,
+    the sphere, or for a pack that bursts between fixed walls the energy it created). The state
+    of the step before (positions, velocities, angular velocities) stays readable.
+
+    Parameters
+    ----------
+    message : str
+        What went unstable, and where.
+    step : int
+        The step that failed.
+    particle : int
+        The id of the sphere the message names.
+
+    Attributes
+    ----------
+    step : int
+        The step that failed.
+    particle : int
+        The id of the sphere the message names.
     """
 
     def __init__(self, message: str, step: int, particle: int):
@@ -79,12 +96,16 @@ def _one_thread_at_a_time(*any_thread: str):
 
 @_one_thread_at_a_time("request_stop", "running")
 class Simulation:
-    """Rigid spheres with Kelvin-Voigt contacts, plane walls and gravity.
+    """Rigid spheres with linear (Kelvin-Voigt) or Hertz-Mindlin contacts, plane walls and gravity.
+
+    The contact law follows from the materials (:class:`Material`); the options below are fixed
+    at construction, except ``gravity``, ``dt`` and ``threads``, which are also assignable
+    properties.
 
     Parameters
     ----------
-    gravity : (3,) floats
-        Gravitational acceleration [m/s^2]. Default ``(0, 0, -9.81)``.
+    gravity : sequence of 3 floats
+        Gravitational acceleration [m/s^2], shape (3,). Default ``(0, 0, -9.81)``.
     dt : float or None
         Time step [s]. None: ``default_time_step()`` = t_c / 50, with t_c = pi/alpha (B.3, B.5)
         the shortest contact duration of the scene, evaluated when a run starts. A dt above
@@ -98,8 +119,8 @@ class Simulation:
         other work, waiting at its barriers can cost far more). Default 2048; 0 always uses
         ``threads``.
     seed : int
-        Seed of the roughness draws (0 <= seed < 2^64). A run is reproducible for a given seed
-        whatever the thread count; another seed gives another run.
+        Seed of the roughness draws (0 <= seed < 2^64). Default 0. A run is reproducible for a
+        given seed whatever the thread count; another seed gives another run.
     skin : float or None
         Neighbour-list skin [m]. None: 0.2 x the mean diameter. The list is rebuilt when a
         particle has moved more than skin/2 (or a moving wall could reach a new particle).
@@ -123,24 +144,35 @@ class Simulation:
         that the default dt stays the same from one run to the next.
     slip_rule : {"frozen", "truncate"}
         What a slipping contact does. "frozen" (default): the notes' (1.17)-(1.18), force
-        mu |f_n| against the slip velocity, stored displacement kept. "truncate": LAMMPS's
+        ``mu abs(f_n)`` against the slip velocity, stored displacement kept. "truncate": LAMMPS's
         gran/hooke/history and the shared reference scene's: the spring force is scaled to
-        mu |f_n| in its own direction and the displacement truncated to match (needs
+        ``mu abs(f_n)`` in its own direction and the displacement truncated to match (needs
         tangential_history="rotate"); use it to compare with those codes digit for digit.
     max_overlap : float
-        A run stops with InstabilityError when an overlap exceeds this fraction of the smaller
-        radius. Default 0.5.
+        A run stops with :class:`InstabilityError` when an overlap exceeds this fraction of the
+        smaller radius, > 0. Default 0.5.
     initial_overlap : float
-        The first run refuses initial overlaps larger than this fraction of the smaller radius.
-        Default 0.05.
+        The first run refuses (ValueError) initial overlaps larger than this fraction of the
+        smaller radius, >= 0. Default 0.05.
     allow_unstable_dt : bool
         Run even if dt exceeds the stability bound (the instability check still applies).
+        Default False.
     rebuild_every_step : bool
-        Rebuild the neighbour list every step (a testing aid; results are identical).
+        Rebuild the neighbour list every step (a testing aid; results are identical). Default
+        False.
 
-    Threads
-    -------
-    Runs release the GIL, so several Simulations can run at once from several threads (with
+    Raises
+    ------
+    TypeError
+        For an option of the wrong type (a string where a number is expected, a float for
+        ``threads``, a non-bool flag).
+    ValueError
+        For a value out of range or an unknown choice; the message names the argument and the
+        value.
+
+    Notes
+    -----
+    **Threads.** Runs release the GIL, so several Simulations can run at once from several threads (with
     the same results as one after the other). One Simulation is used by one thread at a time:
     while it runs, a call from another thread (another run, a setter, reading an array, ...)
     raises RuntimeError("Simulation is running in another thread ..."); only
@@ -194,7 +226,8 @@ class Simulation:
     # ---- options ---------------------------------------------------------------------------
     @property
     def gravity(self) -> np.ndarray:
-        """Gravitational acceleration [m/s^2], shape (3,)."""
+        """Gravitational acceleration [m/s^2], shape (3,). Assignable (ValueError for a
+        non-finite vector or one that would give a sphere an energy beyond 1e300 J)."""
         return np.array(self._core.gravity)
 
     @gravity.setter
@@ -206,7 +239,8 @@ class Simulation:
 
     @property
     def dt(self) -> float:
-        """The time step [s] the next run uses (the default t_c/50 unless one was set)."""
+        """The time step [s] the next run uses (the one set, or :meth:`default_time_step`).
+        Assignable: a float > 0, or None for the default."""
         return self._core.time_step()
 
     @dt.setter
@@ -215,12 +249,15 @@ class Simulation:
 
     @property
     def seed(self) -> int:
-        """Seed of the roughness draws."""
+        """Seed of the roughness draws (read-only; set in the constructor)."""
         return self._core.seed
 
     @property
     def threads(self) -> int:
-        """OpenMP threads used by runs (0: OpenMP's default)."""
+        """OpenMP threads runs may use, 0 for OpenMP's default (all cores).
+
+        Assignable: an integer in [1, 4096], or None for the default. Results are the same bits
+        for any count."""
         return self._core.threads
 
     @threads.setter
@@ -230,13 +267,16 @@ class Simulation:
 
     @property
     def parallel_min(self) -> int:
-        """Scenes with fewer spheres run on one thread (see the constructor)."""
+        """Scenes with fewer spheres than this run on one thread (see the constructor;
+        read-only)."""
         return self._core.parallel_min
 
     @property
     def threads_used(self) -> int:
-        """Threads a run of this scene uses: 1 below ``parallel_min`` spheres (or in a build
-        without OpenMP), else ``threads`` or OpenMP's default."""
+        """Threads a run of this scene uses (read-only).
+
+        1 below :attr:`parallel_min` spheres (or in a build without OpenMP), else
+        :attr:`threads` or OpenMP's default."""
         return self._core.threads_used()
 
     @property
@@ -271,11 +311,25 @@ class Simulation:
     def set_pair(self, material_a: Material, material_b: Material, **overrides) -> None:
         """Override the mixed contact parameters between two materials (either order).
 
-        Keywords: ``kn``, ``kt``, ``restitution``, ``friction``, ``rolling_friction``,
-        ``tangential_damping``, ``roughness`` (degrees), ``roughness_distribution``, ``shadow``,
-        with the meaning and units of :class:`Material`, and, for two Hertzian materials,
-        ``effective_modulus`` (E* [Pa], > 0) and ``effective_shear_modulus`` (G* [Pa], >= 0);
-        those not given keep their mixed value.
+        Parameters
+        ----------
+        material_a, material_b : Material
+            The two materials (equal for the contacts of one material with itself).
+        **overrides
+            Any of ``kn``, ``kt``, ``restitution``, ``friction``, ``rolling_friction``,
+            ``tangential_damping``, ``roughness`` (degrees), ``roughness_distribution``,
+            ``shadow``, with the meaning, units and ranges of :class:`Material`, and, for two
+            Hertzian materials, ``effective_modulus`` (E* [Pa], > 0) and
+            ``effective_shear_modulus`` (G* [Pa], >= 0). Those not given keep their mixed value
+            (see :meth:`pair_parameters`).
+
+        Raises
+        ------
+        TypeError
+            For an unknown keyword, or a material that is not a :class:`Material`.
+        ValueError
+            For a value out of its range, or an ``effective_modulus`` given for a pair that is
+            not Hertzian.
         """
         a = self._material(material_a, "material_a")
         b = self._material(material_b, "material_b")
@@ -294,15 +348,47 @@ class Simulation:
         self._pair_overrides[(a, b)] = params
 
     def pair_parameters(self, material_a: Material, material_b: Material) -> dict:
-        """The contact parameters used between two materials (mixed, or as overridden);
-        roughness in degrees."""
+        """The contact parameters used between two materials (mixed, or as overridden).
+
+        Parameters
+        ----------
+        material_a, material_b : Material
+            The two materials, in either order.
+
+        Returns
+        -------
+        dict
+            Parameter name to value: the keywords of :meth:`set_pair`, in the units of
+            :class:`Material` (roughness in degrees; ``effective_modulus`` 0 for a linear
+            pair).
+
+        Raises
+        ------
+        TypeError
+            For an argument that is not a :class:`Material`.
+        """
         return _from_core(self._core.pair_parameters(self._material(material_a, "material_a"),
                                                      self._material(material_b, "material_b")))
 
     # ---- scene -------------------------------------------------------------------------------
     def reserve(self, count: int) -> None:
-        """Make room for ``count`` spheres in all (an integer >= 0) before adding them in
-        batches: the engine's particle arrays then grow once, which keeps peak memory down."""
+        """Make room for ``count`` spheres in all before adding them in batches: the engine's
+        particle arrays then grow once, which keeps peak memory down.
+
+        Parameters
+        ----------
+        count : int
+            Total number of spheres to make room for, >= 0.
+
+        Raises
+        ------
+        TypeError
+            For a count that is not an integer.
+        ValueError
+            For a negative count.
+        MemoryError
+            When ``count`` spheres cannot fit in the memory available.
+        """
         count = _checks.whole("count", count)
         _checks.fits_in_memory("count", count)
         self._core.reserve(count)
@@ -311,15 +397,41 @@ class Simulation:
                     angular_velocities=None) -> np.ndarray:
         """Add N spheres; returns their ids (consecutive integers, in the order given).
 
-        positions : (N, 3) [m]; radius : float or (N,) [m], > 0; material : Material;
-        velocities : (N, 3) [m/s] or None (zero); angular_velocities : (N, 3) [rad/s] or None.
-        Mass is density 4/3 pi r^3 and the moment of inertia 2/5 m r^2 (1.3).
+        Mass is density 4/3 pi r^3 and the moment of inertia 2/5 m r^2 (1.3). The arrays are
+        copied (later changes to them do not reach the simulation). The result of a
+        :mod:`tsubu.fill` generator plugs in: ``add_spheres(p.positions, p.radii, material)``.
 
-        The arrays are copied (later changes to them do not reach the simulation). Raises
-        TypeError for non-numbers (booleans, complex numbers and strings too), ValueError for
-        wrong shapes, non-finite values and radii whose mass or moment of inertia (or their
-        inverses) overflow or vanish for the material's density, MemoryError, before anything is
-        allocated, for more spheres than the available memory holds (about 400 bytes each).
+        Parameters
+        ----------
+        positions : array_like, shape (N, 3)
+            Centre positions [m]; a single 3-vector counts as N = 1.
+        radius : float or array_like, shape (N,)
+            Radii [m], > 0: one for all, or one per sphere.
+        material : Material
+            The spheres' material (one for all; call again for another material).
+        velocities : array_like, shape (N, 3), optional
+            Initial velocities [m/s]. Default None: at rest.
+        angular_velocities : array_like, shape (N, 3), optional
+            Initial angular velocities [rad/s]. Default None: not spinning.
+
+        Returns
+        -------
+        numpy.ndarray of int64, shape (N,)
+            The new spheres' ids, their rows in :attr:`positions` and the other arrays.
+
+        Raises
+        ------
+        TypeError
+            For non-numbers (booleans, complex numbers and strings too) or a material that is
+            not a :class:`Material`.
+        ValueError
+            For wrong shapes, non-finite values, radii <= 0, radii whose mass or moment of
+            inertia (or their inverses) overflow or vanish for the material's density, energies
+            beyond 1e300 J per sphere, or a material whose contact law (linear or Hertzian)
+            differs from the scene's.
+        MemoryError
+            Before anything is allocated, for more spheres than the available memory holds
+            (about 400 bytes each).
         """
         x = _checks.points("positions", positions)
         n = x.shape[0]
@@ -339,7 +451,30 @@ class Simulation:
 
     def add_sphere(self, position, radius: float, material: Material, velocity=None,
                    angular_velocity=None) -> int:
-        """Add one sphere; returns its id. Arguments as :meth:`add_spheres` for one sphere."""
+        """Add one sphere; returns its id (an int).
+
+        Parameters
+        ----------
+        position : array_like, shape (3,)
+            Centre [m].
+        radius : float
+            Radius [m], > 0.
+        material : Material
+            The sphere's material.
+        velocity : array_like, shape (3,), optional
+            Initial velocity [m/s]. Default None: at rest.
+        angular_velocity : array_like, shape (3,), optional
+            Initial angular velocity [rad/s]. Default None: not spinning.
+
+        Raises
+        ------
+        TypeError
+            For non-numbers or a material that is not a :class:`Material`.
+        ValueError
+            For a radius <= 0, wrong shapes or non-finite values (as :meth:`add_spheres`).
+        MemoryError
+            When no memory is left for one more sphere.
+        """
         ids = self.add_spheres(
             [_checks.vec3("position", position)], _checks.positive("radius", radius), material,
             None if velocity is None else [_checks.vec3("velocity", velocity)],
@@ -349,14 +484,37 @@ class Simulation:
     def add_plane(self, point=None, normal=None, material: Material | None = None,
                   velocity=(0.0, 0.0, 0.0), angular_velocity=(0.0, 0.0, 0.0),
                   coefficients=None) -> int:
-        """Add an infinite plane wall; returns its index.
+        """Add an infinite plane wall; returns its index (an int, counted from 0).
 
-        Give either ``point`` [m] and ``normal``, or ``coefficients`` = (a, b, c, d) of
+        Give either ``point`` and ``normal``, or ``coefficients`` = (a, b, c, d) of
         a x + b y + c z + d = 0 (3.2). The normal (or (a, b, c)) points to the side where
         spheres live: a plane is a half-space, and a sphere whose centre crosses it is an
-        instability. The wall translates with ``velocity`` [m/s] and rotates with
-        ``angular_velocity`` [rad/s] about ``point``; its velocity at the contact point enters
-        the relative velocity. Wall contacts use the particle's mass as m_eff.
+        instability. The wall's velocity at the contact point enters the relative velocity.
+        Wall contacts use the particle's mass as m_eff.
+
+        Parameters
+        ----------
+        point : array_like, shape (3,), optional
+            A point of the plane [m], also the centre of its rotation. Default the origin.
+        normal : array_like, shape (3,), optional
+            The normal, towards the spheres' side; any nonzero length (it is normalised).
+            Default ``(0, 0, 1)``.
+        material : Material
+            The wall's material (required).
+        velocity : array_like, shape (3,)
+            Translation velocity [m/s]. Default zero.
+        angular_velocity : array_like, shape (3,)
+            Angular velocity [rad/s] about ``point``. Default zero.
+        coefficients : array_like, shape (4,), optional
+            (a, b, c, d), instead of ``point`` and ``normal``.
+
+        Raises
+        ------
+        TypeError
+            Without a material, or for arguments that are not numbers.
+        ValueError
+            For both ``coefficients`` and ``point``/``normal``, a zero normal, non-finite
+            values, or a material whose contact law differs from the scene's.
         """
         if material is None:
             raise TypeError("add_plane needs a material")
@@ -388,14 +546,52 @@ class Simulation:
                                     _checks.vec3("angular_velocity", angular_velocity))
 
     def set_plane_motion(self, wall: int, velocity=None, angular_velocity=None) -> None:
-        """Change a wall's velocity [m/s] and/or angular velocity [rad/s]."""
+        """Change a wall's velocity and/or angular velocity (from the next step on).
+
+        Parameters
+        ----------
+        wall : int
+            The wall's index (as returned by :meth:`add_plane`).
+        velocity : array_like, shape (3,), optional
+            New translation velocity [m/s]. Default None: unchanged.
+        angular_velocity : array_like, shape (3,), optional
+            New angular velocity [rad/s] about the wall's current point. Default None:
+            unchanged.
+
+        Raises
+        ------
+        TypeError
+            For an index that is not an integer, or vectors that are not numbers.
+        ValueError
+            For a wall that does not exist or non-finite vectors.
+        """
         state = self.plane(wall)
         v = state["velocity"] if velocity is None else _checks.vec3("velocity", velocity)
         w = state["angular_velocity"] if angular_velocity is None else _checks.vec3("angular_velocity", angular_velocity)
         self._core.set_plane_motion(wall, v, w)
 
     def plane(self, wall: int) -> dict:
-        """A wall's current point, unit normal, velocity and angular velocity."""
+        """A wall's current state.
+
+        Parameters
+        ----------
+        wall : int
+            The wall's index (as returned by :meth:`add_plane`).
+
+        Returns
+        -------
+        dict
+            ``point`` [m], ``normal`` (unit), ``velocity`` [m/s], ``angular_velocity``
+            [rad/s], each a numpy array of shape (3,), and ``material`` (the
+            :class:`Material`).
+
+        Raises
+        ------
+        TypeError
+            For an index that is not an integer.
+        ValueError
+            For a wall that does not exist.
+        """
         wall = _checks.whole("wall", wall)
         if wall >= self._core.plane_count:
             raise ValueError(f"wall {wall} does not exist: the simulation has {self._core.plane_count} "
@@ -772,32 +968,56 @@ class Simulation:
     def contacts(self) -> dict:
         """The contacts of the last force evaluation (the start of the last step).
 
-        A dict of arrays, one row per touching contact, sorted by ``i``:
-        ``i`` sphere id; ``j`` partner id (-1 for a wall); ``wall`` wall index (-1 for a pair);
-        ``overlap`` [m]; ``force`` on i [N], shape (M, 3) (the partner gets -force);
-        ``torque_i`` torque on i from this contact [N m]; ``tangential_displacement`` the stored
-        history [m] (zero without friction).
+        Returns
+        -------
+        dict of numpy arrays
+            One row per touching contact (M in all), sorted by ``i``:
+
+            - ``i``: sphere id, int64, shape (M,);
+            - ``j``: partner sphere id (-1 for a wall), int64, shape (M,);
+            - ``wall``: wall index (-1 for a pair of spheres), int, shape (M,);
+            - ``overlap``: overlap [m], shape (M,);
+            - ``force``: contact force on i [N], shape (M, 3) (the partner gets -force);
+            - ``torque_i``: torque on i from this contact [N m], shape (M, 3);
+            - ``tangential_displacement``: the stored tangential history [m], shape (M, 3)
+              (zero without friction).
         """
         return self._core.contacts()
 
     def energy(self, at_positions: bool = False) -> dict:
-        """Energies [J]: ``translational``, ``rotational``, ``kinetic`` (their sum),
-        ``gravitational`` (-sum m g.x), ``elastic`` (springs of the last force evaluation:
-        1/2 kn overlap^2 + 1/2 kt |history|^2), ``total`` (kinetic + gravitational + elastic) and
-        ``dissipated`` (work of dashpots, slip and rolling friction since the start). With fixed
-        walls, ``total + dissipated`` is conserved up to time-discretisation error.
+        """The energies of the scene [J].
 
-        at_positions : bool, default False. True: the normal springs' energy from the current
-        positions instead of the last force evaluation (which is one step behind the kinetic and
-        gravitational parts), and ``step_correction`` [J] = dt/2 (sum v.F over gravity and the
-        normal springs - the same over the tangential springs): ``total + step_correction`` is
-        symplectic Euler's modified energy, exactly conserved for linear springs however close
-        dt is to the bound; with ``dissipated`` it is the balance that tsubu's own instability
-        check uses (docs/physics.md). Without at_positions, ``step_correction`` is 0.
+        With fixed walls, ``total + dissipated`` is conserved up to time-discretisation error.
 
-        Raises ValueError if a part is not finite: input whose energy would overflow is refused
-        (a sphere's kinetic, rotational or gravitational energy above 1e300 J), so only a run
-        that drove the state there (an enormous gravity, say) can get there.
+        Parameters
+        ----------
+        at_positions : bool
+            Default False. True: the normal springs' energy from the current positions instead
+            of the last force evaluation (which is one step behind the kinetic and
+            gravitational parts), and ``step_correction`` = dt/2 (sum v.F over gravity and the
+            normal springs - the same over the tangential springs): ``total +
+            step_correction`` is symplectic Euler's modified energy, exactly conserved for
+            linear springs however close dt is to the bound; with ``dissipated`` it is the
+            balance that tsubu's own instability check uses (docs/physics.md).
+
+        Returns
+        -------
+        dict of float
+            ``translational``, ``rotational``, ``kinetic`` (their sum), ``gravitational``
+            (-sum m g.x), ``elastic`` (springs of the last force evaluation: 1/2 kn overlap^2 +
+            1/2 kt abs(history)^2 for the linear law, the Hertz-Mindlin potentials otherwise),
+            ``total`` (kinetic + gravitational + elastic), ``dissipated`` (work of dashpots,
+            slip and rolling friction since the start) and ``step_correction`` (0 without
+            ``at_positions``), all in joules.
+
+        Raises
+        ------
+        TypeError
+            For an ``at_positions`` that is not a bool.
+        ValueError
+            If a part is not finite. Input whose energy would overflow is refused (a sphere's
+            kinetic, rotational or gravitational energy above 1e300 J), so only a run that
+            drove the state there (an enormous gravity, say) can get there.
         """
         if not isinstance(at_positions, (bool, np.bool_)):
             raise TypeError(f"at_positions must be a bool, got {at_positions!r}")
