@@ -14,7 +14,8 @@ from .material import Material
 
 __all__ = ["Inserter"]
 
-# Random positions tried per sphere at one event before what is left waits for the next event.
+# Random positions tried in a row without room, at one event, before what is left waits for the
+# next event.
 _ATTEMPTS_PER_EVENT = 2000
 # Radii are drawn in chunks of this size, so the stream of sizes does not depend on when events
 # fall or how a run is cut into pieces.
