@@ -59,6 +59,65 @@ void set_n3(Sim& s, const Array& a, const char* name) {
   (s.*set)(a.data());
 }
 
+// Checkpoints: the run's counters and energy reference, and the touching contacts' state.
+py::dict run_state_dict(const Sim& s) {
+  const Sim::RunState r = s.run_state();
+  const tsubu::Energy& e = r.energy_ref;
+  return py::dict("step"_a = r.step, "time"_a = r.time, "ran"_a = r.ran,
+                  "speed_fixed"_a = r.speed_fixed,
+                  "energy_ref"_a = std::vector<double>{e.translational, e.rotational, e.gravitational,
+                                                       e.elastic, e.dissipated, e.step_correction},
+                  "energy_ref_valid"_a = r.energy_ref_valid, "energy_ref_step"_a = r.energy_ref_step,
+                  "energy_ref_gravity"_a = from_vec3(r.energy_ref_gravity));
+}
+
+void set_run_state(Sim& s, const py::dict& d) {
+  Sim::RunState r;
+  r.step = d["step"].cast<long>();
+  r.time = d["time"].cast<double>();
+  r.ran = d["ran"].cast<bool>();
+  r.speed_fixed = d["speed_fixed"].cast<double>();
+  const auto e = d["energy_ref"].cast<std::array<double, 6>>();
+  r.energy_ref = {e[0], e[1], e[2], e[3], e[4], e[5]};
+  r.energy_ref_valid = d["energy_ref_valid"].cast<bool>();
+  r.energy_ref_step = d["energy_ref_step"].cast<long>();
+  r.energy_ref_gravity = to_vec3(d["energy_ref_gravity"].cast<std::array<double, 3>>());
+  s.set_run_state(r);
+}
+
+using Ids = py::array_t<std::int64_t, py::array::c_style | py::array::forcecast>;
+
+py::dict contact_state_dict(const Sim& s, bool walls) {
+  const Sim::ContactState c = s.contact_state(walls);
+  const py::ssize_t m = static_cast<py::ssize_t>(c.owner.size());
+  py::list values, widths;
+  for (std::size_t k = 0; k < c.values.size(); ++k) {
+    Array a({m, py::ssize_t(c.widths[k])});
+    std::copy(c.values[k].begin(), c.values[k].end(), a.mutable_data());
+    values.append(a);
+    widths.append(c.widths[k]);
+  }
+  return py::dict("owner"_a = Ids(m, c.owner.data()), "partner"_a = Ids(m, c.partner.data()),
+                  "values"_a = values, "widths"_a = widths);
+}
+
+Sim::ContactState contact_state_from(const py::dict& d) {
+  Sim::ContactState c;
+  const Ids owner = d["owner"].cast<Ids>(), partner = d["partner"].cast<Ids>();
+  c.owner.assign(owner.data(), owner.data() + owner.size());
+  c.partner.assign(partner.data(), partner.data() + partner.size());
+  const auto values = d["values"].cast<std::vector<Array>>();
+  const auto widths = d["widths"].cast<std::vector<int>>();
+  if (values.size() != c.values.size() || widths.size() != c.widths.size())
+    throw tsubu::InvalidArgument("checkpoint state: " + std::to_string(c.values.size()) +
+                                 " contact arrays expected");
+  for (std::size_t k = 0; k < c.values.size(); ++k) {
+    c.values[k].assign(values[k].data(), values[k].data() + values[k].size());
+    c.widths[k] = widths[k];
+  }
+  return c;
+}
+
 }  // namespace
 
 void register_state(py::class_<Sim>& cls) {
@@ -117,7 +176,33 @@ void register_state(py::class_<Sim>& cls) {
              for (const auto& [name, bytes] : s.memory_bytes()) d[py::str(name)] = bytes;
              return d;
            })
-      .def("skin", &Sim::skin);
+      .def("skin", &Sim::skin)
+      .def("run_state", &run_state_dict)
+      .def("set_run_state", &set_run_state)
+      .def("contact_state", &contact_state_dict, "walls"_a)
+      .def("set_contact_state",
+           [](Sim& s, const py::dict& pairs, const py::dict& walls) {
+             s.set_contact_state(contact_state_from(pairs), contact_state_from(walls));
+           })
+      .def("dissipated", &n1<double, &Sim::get_dissipated>)
+      .def("set_dissipated",
+           [](Sim& s, const Array& a) {
+             if (a.ndim() != 1 || static_cast<std::size_t>(a.shape(0)) != s.size())
+               throw tsubu::InvalidArgument("dissipated must have shape (N,)");
+             s.set_dissipated(a.data());
+           })
+      .def("set_plane_state",
+           [](Sim& s, int wall, const std::array<double, 3>& point, const std::array<double, 3>& normal,
+              const std::array<double, 3>& velocity, const std::array<double, 3>& angular_velocity,
+              int material) {
+             tsubu::Plane p;
+             p.point = to_vec3(point);
+             p.normal = to_vec3(normal);
+             p.velocity = to_vec3(velocity);
+             p.angular_velocity = to_vec3(angular_velocity);
+             p.material = material;
+             s.set_plane_state(wall, p);
+           });
 }
 
 }  // namespace tsubu_py

@@ -414,6 +414,15 @@ void Simulation::prepare_run() {
   if (dt_ > crit && !opt_.allow_unstable_dt)
     throw InvalidArgument("dt = " + fmt(dt_) + " s exceeds the stability bound " + fmt(crit) +
                           " s of (2.31) for this scene; use a smaller dt or allow_unstable_dt");
+  select_law();
+  if (!list_valid_) rebuild(true);
+  size_entry_buffers();
+  cache_near_terms();  // the pair table may have changed since the last run
+  if (!ran_) check_initial_overlaps();
+  ran_ = true;
+}
+
+void Simulation::select_law() {
   law_ = &find_law(law_key());
   const int moment = law_->history_width > 0 ? 3 : 0;
   pair_shape_ = {law_->history_width, law_->rough_width > 0 ? 3 : moment, law_->rolling ? 3 : 0,
@@ -422,11 +431,6 @@ void Simulation::prepare_run() {
   sphere_material_ = n_ > 0 ? particles_.material[0] : -1;
   for (std::size_t k = 1; k < n_ && sphere_material_ >= 0; ++k)
     if (particles_.material[k] != sphere_material_) sphere_material_ = -1;
-  if (!list_valid_) rebuild(true);
-  size_entry_buffers();
-  cache_near_terms();  // the pair table may have changed since the last run
-  if (!ran_) check_initial_overlaps();
-  ran_ = true;
 }
 
 long Simulation::run(long steps, const std::function<bool()>& should_stop, double poll_seconds) {

@@ -3,9 +3,11 @@
 from __future__ import annotations
 
 import functools
+import json
 import math
 import threading
 import time as _time
+from pathlib import Path
 
 import numpy as np
 
@@ -61,7 +63,8 @@ def _one_thread_at_a_time(*any_thread: str):
 
     def decorate(cls):
         for name, member in list(vars(cls).items()):
-            if name in any_thread or (name.startswith("_") and name != "__len__"):
+            if (name in any_thread or (name.startswith("_") and name != "__len__")
+                    or isinstance(member, (staticmethod, classmethod))):
                 continue
             if isinstance(member, property):
                 setattr(cls, name, property(guard(member.fget),
@@ -156,6 +159,9 @@ class Simulation:
         self._core = _core.Simulation()
         self._materials: list[Material] = []
         self._inserters: list = []  # hooks kept across runs (add_inserter)
+        self._pair_overrides: dict = {}  # (a, b) -> _core.PairParams, for checkpoints
+        #: A JSON-able dict saved with checkpoints (:meth:`save`) and restored by :meth:`load`.
+        self.metadata: dict = {}
         self._material_index: dict[int, int] = {}
         self.gravity = gravity
         self.dt = dt
@@ -283,7 +289,9 @@ class Simulation:
                 "effective_modulus must be > 0 for a pair of Hertzian materials and 0 otherwise, "
                 f"got {p['effective_modulus']!r}")
         _check_uniform_range(p["roughness_distribution"], p["roughness"])
-        self._core.set_pair_parameters(a, b, _to_core(_core.PairParams, p))
+        params = _to_core(_core.PairParams, p)
+        self._core.set_pair_parameters(a, b, params)
+        self._pair_overrides[(a, b)] = params
 
     def pair_parameters(self, material_a: Material, material_b: Material) -> dict:
         """The contact parameters used between two materials (mixed, or as overridden);
@@ -626,6 +634,67 @@ class Simulation:
     def step_count(self) -> int:
         """Steps taken so far."""
         return self._core.step_count
+
+    # ---- checkpoints ---------------------------------------------------------------------------
+    def save(self, path, metadata: dict | None = None) -> Path:
+        """Write a checkpoint of the complete state to ``path``; returns the path.
+
+        The file holds the spheres (positions, velocities, angular velocities, radii,
+        materials, dissipated energy), the walls and their motion, the materials and pair
+        overrides, the options, every touching contact's history and roughness state, the
+        step counter and time, the energy bookkeeping, the inserters' progress, and
+        ``metadata`` (default :attr:`metadata`; any JSON-able dict). :meth:`load` gives a
+        Simulation whose runs continue bit for bit as this one's would.
+
+        The file is written atomically (a temporary file in the same folder, fsync'ed, then
+        renamed over ``path``): at every moment ``path`` is the old file or the complete new
+        one. It carries a format version and a SHA-256 checksum (:mod:`tsubu.checkpoint`).
+
+        Raises
+        ------
+        TypeError
+            ``path`` is not a path, or ``metadata`` is not a JSON-able dict.
+        OSError
+            The file cannot be written (the old file, if any, is left as it was).
+        """
+        from . import checkpoint
+
+        target = _checks.path("path", path)
+        if metadata is None:
+            metadata = self.metadata
+        if not isinstance(metadata, dict):
+            raise TypeError(f"metadata must be a dict, got {metadata!r}")
+        try:
+            json.dumps(metadata, allow_nan=True)
+        except (TypeError, ValueError) as e:
+            raise TypeError(f"metadata must be JSON-able (dicts, lists, strings, numbers): {e}") from None
+        arrays, meta = checkpoint.state_of(self, metadata)
+        checkpoint.write_atomically(target, checkpoint.encode(arrays, meta))
+        return target
+
+    @staticmethod
+    def load(path, threads: int | None = None) -> "Simulation":
+        """A Simulation restored from a checkpoint written by :meth:`save`.
+
+        ``threads``: the OpenMP threads of the restored Simulation (default: the saved
+        setting); results are the same bits for any count. The checkpoint's ``metadata`` is
+        in :attr:`metadata`.
+
+        Raises
+        ------
+        tsubu.checkpoint.CheckpointError
+            (a ValueError) The file is truncated, corrupted (checksum), not a tsubu
+            checkpoint, or written by a newer tsubu: nothing is built from it.
+        FileNotFoundError
+            No such file.
+        """
+        from . import checkpoint
+
+        source = _checks.path("path", path)
+        if threads is not None:
+            threads = _checks.whole("threads", threads, minimum=1, maximum=MAX_THREADS)
+        arrays, meta = checkpoint.decode(source)
+        return checkpoint.restore(arrays, meta, threads)
 
     # ---- state (copies, in id order) ---------------------------------------------------------
     @property

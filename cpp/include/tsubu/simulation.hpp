@@ -217,6 +217,40 @@ class Simulation {
   Energy energy_now() const;
   std::vector<ContactInfo> contacts() const;
 
+  // ---- checkpoints (checkpoint.cpp) ----------------------------------------------------------
+  // What a checkpoint needs beyond the public setters: the counters and energy bookkeeping of
+  // the run, each sphere's dissipated energy, and the state of every touching contact keyed by
+  // ids. Restored onto a Simulation set up with the same materials, pair parameters, options,
+  // spheres (in id order) and walls, a run continues bit for bit as the saved one would have:
+  // results do not depend on the particles' internal order nor on the lists' schedule.
+  struct RunState {
+    long step = 0;
+    double time = 0;
+    bool ran = false;
+    double speed_fixed = 0;
+    Energy energy_ref;
+    bool energy_ref_valid = false;
+    long energy_ref_step = 0;
+    Vec3 energy_ref_gravity = Vec3::Zero();
+  };
+  RunState run_state() const;
+  void set_run_state(const RunState& s);
+  // The touching contacts of one kind (pairs: owner id, partner id; walls: sphere id, wall
+  // index), each with the carried arrays of EntryStore in its order, `widths[k]` values each.
+  struct ContactState {
+    std::vector<Id> owner, partner;
+    std::array<std::vector<double>, EntryStore::kFields> values;
+    std::array<int, EntryStore::kFields> widths{};
+  };
+  ContactState contact_state(bool walls) const;
+  // Builds the lists and puts the saved state into them; throws InvalidArgument if a contact
+  // names no sphere or wall, or if the widths are not those of the scene's law.
+  void set_contact_state(const ContactState& pairs, const ContactState& walls);
+  void get_dissipated(double* out) const;
+  void set_dissipated(const double* in);
+  // A wall's whole state, bit for bit (add_plane normalises the normal; this does not).
+  void set_plane_state(int wall, const Plane& p);
+
   // ---- neighbour list ----------------------------------------------------------------------
   void rebuild_neighbors();
   // Pairs in the current list (ids, lower first): all pairs within r_i + r_j + skin.
@@ -244,6 +278,8 @@ class Simulation {
   void for_each_contact_sum(Out&& out) const;
   void scatter_by_id(const double* in, double* dst);
   void prepare_run();
+  // The compiled law of the scene now, and the entry shapes it needs.
+  void select_law();
   void mix_pairs();
   void check_initial_overlaps() const;
   bool needs_rebuild() const;
