@@ -215,3 +215,20 @@ def test_inserter_refuses_bad_input(args, error, match):
     with pytest.raises(error, match=match):
         sim.add_inserter(**full)
     assert sim.inserters == []
+
+
+def test_a_pour_resumed_from_a_checkpoint_runs_on_bit_for_bit(tmp_path):
+    low = fill.Box((-3e-3, -3e-3, 0.45e-3), (3e-3, 3e-3, 2.5e-3))
+    args = dict(region=low, rate=20_000.0, interval=0.25e-3, velocity=(0, 0, -1.0),
+                sizes=fill.Tabulated([0.3e-3, 0.4e-3, 0.6e-3], [0, 0.3, 1.0], basis="mass"))
+    sim, inserter = pour_scene(**args)
+    sim.run(steps=700)
+    sim.save(tmp_path / "pour.tsubu")
+    sim.run(steps=900)
+    resumed = tsubu.Simulation.load(tmp_path / "pour.tsubu")
+    assert len(resumed.inserters) == 1
+    resumed.run(steps=900)
+    again = resumed.inserters[0]
+    assert again.inserted == inserter.inserted > 0 and again._state() == inserter._state()
+    assert np.array_equal(resumed.positions, sim.positions)
+    assert np.array_equal(resumed.radii, sim.radii)
