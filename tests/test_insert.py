@@ -104,7 +104,7 @@ def test_default_interval_crosses_the_region():
         sim.run(steps=1)
 
 
-def final_state(threads=None, seed=1, pieces=(2_000,)):
+def final_state(threads=None, seed=1, pieces=(1_000,)):
     # low and fast enough that the spheres reach the floor and each other within the run
     low = fill.Box((-3e-3, -3e-3, 0.45e-3), (3e-3, 3e-3, 2.5e-3))
     sim, inserter = pour_scene(threads=threads, parallel_min=0, seed=seed, region=low, rate=20_000.0,
@@ -117,12 +117,12 @@ def final_state(threads=None, seed=1, pieces=(2_000,)):
 def test_same_seed_same_pour_any_thread_count():
     one, _ = final_state(threads=1)
     two, _ = final_state(threads=2)
-    assert one.size == two.size > 40
+    assert one.size == two.size > 20
     assert len(one.contacts()["i"]) > 0
     assert np.array_equal(one.positions, two.positions)
     assert np.array_equal(one.velocities, two.velocities)
     assert np.array_equal(one.radii, two.radii)
-    cut, _ = final_state(threads=1, pieces=(634, 1, 1_365))  # runs cut anywhere: the same
+    cut, _ = final_state(threads=1, pieces=(317, 1, 682))  # runs cut anywhere: the same
     assert np.array_equal(one.positions, cut.positions)
     other, _ = final_state(threads=1, seed=2)
     assert not np.array_equal(other.radii[:10], one.radii[:10])
