@@ -304,6 +304,11 @@ def test_hexagonal_lattice_is_close_packed():
     assert inner.sum() > 100 and np.all(touching == 12)
     cubic = fill.lattice(box, 0.5e-3, kind="cubic")
     assert len(p.positions) > len(cubic.positions)  # 0.740 against 0.524, less the walls
+    small = fill.Box((0, 0, 0), (6e-3, 6e-3, 6e-3))
+    shaken = fill.lattice(small, 0.5e-3, kind="hexagonal", spacing=1.1e-3, jitter=1.0, seed=2)
+    assert len(shaken.positions) > 100
+    assert small.contains(shaken.positions, shaken.radii).all()
+    assert_no_overlap(shaken.positions, shaken.radii)
 
 
 def test_lattice_in_a_cylinder_with_jitter():

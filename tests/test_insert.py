@@ -104,7 +104,7 @@ def test_default_interval_crosses_the_region():
         sim.run(steps=1)
 
 
-def final_state(threads=None, seed=1, pieces=(2_000,)):
+def final_state(threads=None, seed=1, pieces=(1_000,)):
     # low and fast enough that the spheres reach the floor and each other within the run
     low = fill.Box((-3e-3, -3e-3, 0.45e-3), (3e-3, 3e-3, 2.5e-3))
     sim, inserter = pour_scene(threads=threads, parallel_min=0, seed=seed, region=low, rate=20_000.0,
@@ -117,12 +117,12 @@ def final_state(threads=None, seed=1, pieces=(2_000,)):
 def test_same_seed_same_pour_any_thread_count():
     one, _ = final_state(threads=1)
     two, _ = final_state(threads=2)
-    assert one.size == two.size > 40
+    assert one.size == two.size > 20
     assert len(one.contacts()["i"]) > 0
     assert np.array_equal(one.positions, two.positions)
     assert np.array_equal(one.velocities, two.velocities)
     assert np.array_equal(one.radii, two.radii)
-    cut, _ = final_state(threads=1, pieces=(634, 1, 1_365))  # runs cut anywhere: the same
+    cut, _ = final_state(threads=1, pieces=(317, 1, 682))  # runs cut anywhere: the same
     assert np.array_equal(one.positions, cut.positions)
     other, _ = final_state(threads=1, seed=2)
     assert not np.array_equal(other.radii[:10], one.radii[:10])
@@ -215,3 +215,20 @@ def test_inserter_refuses_bad_input(args, error, match):
     with pytest.raises(error, match=match):
         sim.add_inserter(**full)
     assert sim.inserters == []
+
+
+def test_a_pour_resumed_from_a_checkpoint_runs_on_bit_for_bit(tmp_path):
+    low = fill.Box((-3e-3, -3e-3, 0.45e-3), (3e-3, 3e-3, 2.5e-3))
+    args = dict(region=low, rate=20_000.0, interval=0.25e-3, velocity=(0, 0, -1.0),
+                sizes=fill.Tabulated([0.3e-3, 0.4e-3, 0.6e-3], [0, 0.3, 1.0], basis="mass"))
+    sim, inserter = pour_scene(**args)
+    sim.run(steps=700)
+    sim.save(tmp_path / "pour.tsubu")
+    sim.run(steps=900)
+    resumed = tsubu.Simulation.load(tmp_path / "pour.tsubu")
+    assert len(resumed.inserters) == 1
+    resumed.run(steps=900)
+    again = resumed.inserters[0]
+    assert again.inserted == inserter.inserted > 0 and again._state() == inserter._state()
+    assert np.array_equal(resumed.positions, sim.positions)
+    assert np.array_equal(resumed.radii, sim.radii)

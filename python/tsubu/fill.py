@@ -634,7 +634,7 @@ def lattice(region, radius, spacing=None, kind: str = "cubic", jitter=0.0, seed:
                                indexing="ij")
         i, jj, k = i.ravel(), jj.ravel(), k.ravel()
         b = k % 2
-        x = i * s + (jj % 2) * s / 2 + b * s / 2
+        x = i * s + ((jj + b) % 2) * s / 2  # B layers shift rows by s/2 (modulo s)
         y = jj * row + b * s / (2 * math.sqrt(3))
         z = k * layer
         sites = np.stack([x, y, z], axis=1).astype(float)
@@ -642,7 +642,8 @@ def lattice(region, radius, spacing=None, kind: str = "cubic", jitter=0.0, seed:
         centre = (region.lower + region.upper) / 2
         sites += centre - (sites.min(axis=0) + sites.max(axis=0)) / 2
         # a lattice that fits exactly (spheres touching the faces) may cross them by rounding
-        sites = np.clip(sites, region.lower + reach, region.upper - reach)
+        snapped = np.clip(sites, region.lower + reach, region.upper - reach)
+        sites = np.where(np.abs(snapped - sites) <= _ROUNDING * s, snapped, sites)
         sites = sites[region.contains(sites, reach)]
     if shift > 0 and len(sites):
         rng = np.random.default_rng(seed)
@@ -748,64 +749,64 @@ def _conflicts(x, r) -> list:
     return found
 
 
-def _sequential_addition(region, radii, rng, grid: _CellGrid, max_attempts: int, batch: int = 1024):
-    """Place spheres of ``radii`` (in order) at uniform random points of ``region`` where they
-    overlap neither ``grid``'s spheres nor each other, adding them to ``grid``.
+# Spheres this fraction smaller than the largest unplaced one share its candidate points: a point
+# where the larger sphere fits holds a smaller one too, with a bias in where the smaller spheres
+# go that this bound keeps negligible.
+_SHARED_SPREAD = 0.02
 
-    Candidates are drawn in batches of ``batch``: a window of the first unplaced spheres, each
-    given batch/window candidates; the window shrinks as the acceptance rate falls, so a sphere
-    near jamming gets many candidates per batch. Within a batch, candidates are accepted in
-    order (a sphere's first fitting candidate that overlaps no earlier accepted one): the
-    result depends only on the generator's stream. Stops when every sphere is placed or one has
-    had ``max_attempts`` candidates. Returns (positions (n, 3), NaN where not placed; placed
-    mask)."""
+
+def _sequential_addition(region, radii, rng, grid: _CellGrid, max_attempts: int, batch: int = 1024):
+    """Place spheres of ``radii`` (in order, each no larger than the one before unless it waits
+    its turn) at uniform random points of ``region`` where they overlap neither ``grid``'s
+    spheres nor each other, adding them to ``grid``.
+
+    Each round draws ``batch`` candidate points for the first unplaced sphere's radius and keeps
+    those inside the region and clear of the grid; in order, each one that overlaps no point
+    accepted before it in the round goes to the next unplaced sphere, as long as that sphere is
+    no larger than the first and within 2% of it (a window also bounded by twice the expected
+    number of hits, so the spheres of a round stay alike). The result depends only on the
+    generator's stream. Stops when every sphere is placed or ``max_attempts`` candidates in a
+    row found no room. Returns (positions (n, 3), NaN where not placed; placed mask)."""
     n = len(radii)
     positions = np.full((n, 3), np.nan)
     placed = np.zeros(n, dtype=bool)
-    attempts = np.zeros(n, dtype=np.int64)
-    pending = np.arange(n)
     extent = region.upper - region.lower
-    acceptance = 1.0
-    while len(pending):
-        window = int(min(len(pending), batch, max(1, math.ceil(2.0 * batch * acceptance))))
-        # A sphere that failed gets as many candidates as it has had (doubling), so that it is
-        # placed (or found not to fit) before the spheres behind it overtake it for long.
-        tries = np.maximum(batch // window, attempts[pending[:window]])
-        window = max(1, int(np.searchsorted(np.cumsum(tries), batch, side="right")))
-        tries = np.minimum(tries[:window], max(batch, 1))
-        spheres = np.repeat(pending[:window], tries)
-        rs = radii[spheres]
-        x = region.lower + rs[:, None] + rng.random((len(spheres), 3)) * (extent - 2 * rs[:, None])
-        ok = region.contains(x, rs)
+    head, misses, hit_rate = 0, 0, 1.0
+    while head < n:
+        largest = float(radii[head])
+        ahead = radii[head:min(n, head + batch, head + max(1, math.ceil(2.0 * batch * hit_rate)))]
+        alike = (ahead <= largest) & (ahead >= largest * (1.0 - _SHARED_SPREAD))
+        window = len(ahead) if alike.all() else max(1, int(np.argmin(alike)))
+        count = min(batch, max_attempts - misses)
+        x = region.lower + largest + rng.random((count, 3)) * (extent - 2 * largest)
+        ok = region.contains(x, largest)
         if ok.any():
             inside = np.flatnonzero(ok)
-            ok[inside] = ~grid.overlaps(x[inside], rs[inside])
+            ok[inside] = ~grid.overlaps(x[inside], np.full(len(inside), largest))
         valid = np.flatnonzero(ok)
         accepted = []
         if len(valid):
-            before = _conflicts(x[valid], rs[valid])
+            before = _conflicts(x[valid], np.full(len(valid), largest))
             taken = np.zeros(len(valid), dtype=bool)
-            done = set()
             for k in range(len(valid)):
-                s = int(spheres[valid[k]])
-                if s in done:
-                    continue
                 if before[k] is not None and taken[before[k]].any():
                     continue
                 taken[k] = True
-                done.add(s)
                 accepted.append(valid[k])
-        accepted = np.array(accepted, dtype=np.int64)
-        attempts[pending[:window]] += tries
-        if len(accepted):
-            who = spheres[accepted]
+                if len(accepted) == window:
+                    break
+        hit_rate = max(len(valid), 0.25) / count
+        if accepted:
+            who = np.arange(head, head + len(accepted))
             positions[who] = x[accepted]
             placed[who] = True
-            grid.add(x[accepted], rs[accepted])
-        acceptance = max(len(accepted), 0.25) / len(spheres)
-        pending = pending[~placed[pending]]
-        if len(pending) and attempts[pending[0]] >= max_attempts:
-            break
+            grid.add(x[accepted], radii[who])
+            head += len(accepted)
+            misses = 0
+        else:
+            misses += count
+            if misses >= max_attempts:
+                break
     return positions, placed
 
 
@@ -821,11 +822,11 @@ def random_packing(region, sizes, count=None, solid_fraction=None, seed: int = 0
         drawn until their volume reaches it (so the fraction reached exceeds it by less than
         one sphere's volume over the region's). Exactly one of count and solid_fraction.
     seed : the packing is the same for a seed, and another for another seed.
-    max_attempts : random positions tried for one sphere before giving up (>= 1).
+    max_attempts : random positions tried in a row without finding room before giving up (>= 1).
 
     Radii are drawn first, then placed largest first, each at a uniformly random point where it
     lies inside the region and overlaps nothing placed before (candidates are tested in batches
-    against a cell grid). Monodisperse random sequential addition jams near a solid fraction of
+    against a cell grid; spheres within 2% of each other's radius share a batch's points). Monodisperse random sequential addition jams near a solid fraction of
     0.38 (less in a small container, whose walls leave gaps); docs/filling.md gives measured
     limits and speeds. Returns a :class:`Packing`, largest sphere first.
 
@@ -878,8 +879,8 @@ def random_packing(region, sizes, count=None, solid_fraction=None, seed: int = 0
         reached = float(np.sum(_sphere_volume(radii[placed]))) / volume
         raise ValueError(
             f"random_packing placed {got} of {len(radii)} spheres (solid fraction {reached:.4f} "
-            f"of {asked:.4f} asked): sphere {got} (radius {radii[got]!r} m) found no room in "
-            f"{max_attempts} attempts. Random sequential addition jams near 0.38 for equal "
+            f"of {asked:.4f} asked): sphere {got} (radius {float(radii[got])!r} m) found no room "
+            f"in {max_attempts} attempts. Random sequential addition jams near 0.38 for equal "
             "spheres (less in small containers): ask for fewer spheres or a larger region, raise "
             "max_attempts, or for denser packings use lattice() or pour the spheres and let "
             "them settle")

@@ -14,7 +14,8 @@ from .material import Material
 
 __all__ = ["Inserter"]
 
-# Random positions tried per sphere at one event before what is left waits for the next event.
+# Random positions tried in a row without room, at one event, before what is left waits for the
+# next event.
 _ATTEMPTS_PER_EVENT = 2000
 # Radii are drawn in chunks of this size, so the stream of sizes does not depend on when events
 # fall or how a run is cut into pieces.
@@ -50,7 +51,8 @@ class Inserter:
         The unit of ``rate`` and ``total``. By mass, spheres from the size stream are inserted
         while the mass inserted stays within half a sphere's mass of ``rate`` x time.
     start : float
-        Time of the first event [s] (>= 0; default 0).
+        Time of the first event [s] (>= 0; default 0). A simulation without spheres has no
+        default time step, so one that waits for a later start needs ``dt`` set.
     stop : float or None
         No amount becomes due after this time [s] (> start). Events go on only to place what is
         still pending. None: no end.
