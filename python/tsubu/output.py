@@ -105,7 +105,7 @@ def contact_data(sim, contacts: dict | None = None, positions=None) -> dict:
     end = x[np.maximum(j, 0)]
     walls = np.flatnonzero(j < 0)
     if walls.size:
-        planes = [sim.plane(k) for k in range(sim._core.plane_count)]
+        planes = [sim.plane(k) for k in range(sim.plane_count)]
         point = np.array([p["point"] for p in planes])[wall[walls]]
         normal = np.array([p["normal"] for p in planes])[wall[walls]]
         height = np.einsum("ij,ij->i", start[walls] - point, normal)
@@ -132,7 +132,7 @@ def scene_extent(sim, margin: float | None = None) -> tuple[np.ndarray, np.ndarr
     (centres +- the largest radius) joined with the planes' points, widened on every side by
     ``margin`` [m] (default: a tenth of the box's largest side, at least 2 largest radii; 1 m
     for an empty scene)."""
-    points = [np.array(sim.plane(k)["point"]) for k in range(sim._core.plane_count)]
+    points = [np.array(sim.plane(k)["point"]) for k in range(sim.plane_count)]
     lower = np.full(3, np.inf)
     upper = np.full(3, -np.inf)
     r_max = 0.0
@@ -191,7 +191,7 @@ def wall_data(sim, extent=None) -> dict:
     ``corner_velocity`` [m/s] (W, 4, 3): the wall's velocity at each corner, v + w x (c - point).
     """
     lower, upper = scene_extent(sim) if extent is None else _check_extent(extent)
-    count = sim._core.plane_count
+    count = sim.plane_count
     box = np.array([[(lower, upper)[a][0], (lower, upper)[b][1], (lower, upper)[c][2]]
                     for a in (0, 1) for b in (0, 1) for c in (0, 1)])
     materials = sim.materials

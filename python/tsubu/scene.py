@@ -1056,7 +1056,7 @@ class _Builder:
         probe = Simulation(**{k: v for k, v in options.items() if k not in ("duration", "dt_fraction", "dt")})
         for a, b, overrides in self.pairs:
             probe.set_pair(a, b, **overrides)
-        for k in range(sim._core.plane_count):
+        for k in range(sim.plane_count):
             wall = sim.plane(k)
             probe.add_plane(point=wall["point"], normal=wall["normal"], material=wall["material"])
         for positions, radii, material, velocities in self.batches:

@@ -570,6 +570,11 @@ class Simulation:
         w = state["angular_velocity"] if angular_velocity is None else _checks.vec3("angular_velocity", angular_velocity)
         self._core.set_plane_motion(wall, v, w)
 
+    @property
+    def plane_count(self) -> int:
+        """Number of plane walls (their indices are 0 to plane_count - 1)."""
+        return self._core.plane_count
+
     def plane(self, wall: int) -> dict:
         """A wall's current state.
 
