@@ -183,6 +183,7 @@ def test_a_signal_handler_that_raises_stops_the_run_with_its_exception():
 
 def test_a_run_with_progress_stops_on_request(capsys):
     """run(progress=True) runs in chunks; a stop requested during any of them ends the run."""
+    pytest.importorskip("tqdm.auto")  # imported before the timer starts: not inside its 0.1 s
     sim = small_scene()
     timer = threading.Timer(0.1, sim.request_stop)
     timer.start()
