@@ -127,7 +127,9 @@ def resume(args: argparse.Namespace) -> int:
               file=sys.stderr)
         return 2
     except ValueError as e:  # Simulation.load: a truncated, corrupted, foreign or newer file
-        print(f"tsubu: error: {args.checkpoint}: {e}", file=sys.stderr)
+        text = str(e)  # CheckpointError's message starts with the path already
+        where = "" if text.startswith(f"{args.checkpoint}: ") else f"{args.checkpoint}: "
+        print(f"tsubu: error: {where}{text}", file=sys.stderr)
         return 2
     until = None
     if args.time is not None:
@@ -165,7 +167,8 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--nz", type=int, default=20, help="layers (default 20)")
     p.add_argument("--time", type=float, default=0.03, help="simulated time in s (default 0.03)")
     p.add_argument("--threads", type=int, default=None, help="OpenMP threads (default: all)")
-    p.add_argument("--progress", action="store_true", help="print progress")
+    p.add_argument("--progress", action=argparse.BooleanOptionalAction, default=None,
+                   help="show a progress bar (default: only on an interactive terminal)")
     p.set_defaults(func=demo)
     sub.add_parser("info", help="print version and build capabilities").set_defaults(func=info)
     p = sub.add_parser("run", help="run a scene file (TOML; docs/scene-format.md)")
