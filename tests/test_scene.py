@@ -361,13 +361,28 @@ def test_inserters_pour_and_set_the_time_step():
     built = scene.scene_from_dict(data, SCENES)
     sim = built.simulation
     assert sim.size == 0
-    # dt: t_c/50 of a sphere of the inserter's (only) radius, 0.4 mm
+    # dt: t_c/50 of two spheres of the inserter's (only) radius, 0.4 mm, meeting: a pair's
+    # reduced mass is half a sphere's, so its t_c is sqrt(2) shorter than against the wall
     probe = tsubu.Simulation()
     probe.add_plane(point=(0, 0, 0), normal=(0, 0, 1), material=sim.materials[0])
     probe.add_sphere((0, 0, 0.01), 4e-4, sim.materials[0])
-    assert sim.dt == probe.default_time_step()
+    against_wall = probe.default_time_step()
+    probe.add_sphere((0, 0.01, 0.01), 4e-4, sim.materials[0])
+    assert sim.dt == probe.default_time_step() == pytest.approx(against_wall / 2**0.5)
     built.run(progress=False)
     assert sim.size > 0 and np.all(sim.radii == 4e-4)  # the inserter poured spheres
+
+
+def test_an_inserter_total_is_a_count():
+    """TOML's integer total = 3 (a count, basis "number") stops the inserter after 3 spheres."""
+    needs("tsubu.fill", "tsubu.insert")
+    data = read("pour.toml")
+    for key in ("output", "checkpoint", "particles"):
+        data.pop(key)
+    data["inserters"][0]["total"] = 3
+    built = scene.scene_from_dict(data, SCENES)
+    built.run(progress=False)
+    assert built.simulation.size == 3
 
 
 def test_a_generator_error_is_reported_at_its_block():

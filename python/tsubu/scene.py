@@ -1050,8 +1050,10 @@ class _Builder:
         sim.dt = dt
 
     def probe(self, sim: Simulation) -> Simulation:
-        """A Simulation with the scene's options, walls and spheres plus, for each inserter, one
-        sphere of its smallest radius at its velocity: what the run will have to resolve."""
+        """A Simulation with the scene's options, walls and spheres plus, for each inserter, two
+        spheres of its smallest radius at its velocity (two: an inserter's spheres meet each
+        other, and the lightest pair bounds the contact duration): what the run will have to
+        resolve."""
         options = self.scene["simulation"]
         probe = Simulation(**{k: v for k, v in options.items() if k not in ("duration", "dt_fraction", "dt")})
         for a, b, overrides in self.pairs:
@@ -1062,9 +1064,10 @@ class _Builder:
         for positions, radii, material, velocities in self.batches:
             probe.add_spheres(positions, radii, material, velocities=velocities)
         for spec, sizes in self.inserters:
-            offset = 1e3 * (1 + probe.size) * sizes.max_radius  # apart from everything else
-            probe.add_sphere([offset, offset, offset], sizes.min_radius, self.materials[spec["material"]],
-                             velocity=spec.get("velocity"))
+            for _ in range(2):
+                offset = 1e3 * (1 + probe.size) * sizes.max_radius  # apart from everything else
+                probe.add_sphere([offset, offset, offset], sizes.min_radius,
+                                 self.materials[spec["material"]], velocity=spec.get("velocity"))
         return probe
 
     def region(self, path: str, spec: dict):
@@ -1163,6 +1166,9 @@ class _Builder:
         region = self.region(_join(path, "region"), spec["region"])
         sizes = self.sizes(_join(path, "sizes"), spec["sizes"])
         given = {k: v for k, v in spec.items() if k not in ("region", "sizes", "rate", "material")}
+        total = given.get("total")
+        if given.get("basis", "number") == "number" and total is not None and float(total).is_integer():
+            given["total"] = int(total)  # a count (TOML's 600 reaches here as the number 600.0)
         inserter = self.call(path, {"rate": spec["rate"], **given}, sim.add_inserter, region, spec["rate"],
                              sizes, self.materials[spec["material"]], **given)
         self.inserters.append((spec, sizes))
