@@ -919,8 +919,9 @@ class Scene:
     def run(self, until: float | None = None, progress: bool | None = None) -> Simulation:
         """Run to simulated time ``until`` [s] (default :attr:`end_time`) with the scene's output
         and checkpoints; returns the Simulation. An ``until`` beyond :attr:`end_time` becomes the
-        new end time (the one the checkpoints record, which ``tsubu resume`` runs to). A final checkpoint is written at the end when the
-        scene has a [checkpoint] table. Raises InstabilityError (the run went unstable) and
+        new end time (the one the checkpoints record, which ``tsubu resume`` runs to). A final
+        checkpoint is written at the end when the scene has a [checkpoint] table. ``progress``
+        is that of :meth:`tsubu.Simulation.run` (None: a bar on an interactive terminal). Raises InstabilityError (the run went unstable) and
         KeyboardInterrupt (Ctrl-C; a checkpoint is written first when the scene has one)."""
         sim = self.simulation
         end = self.end_time if until is None else until
@@ -989,8 +990,9 @@ def load_scene(path, *, threads: int | None = None, output_directory=None) -> Sc
 
 def scene_from_dict(data: dict, directory=".", *, source: str | None = None, threads: int | None = None,
                     output_directory=None) -> Scene:
-    """Build a :class:`Scene` from a scene as a dict (a parsed TOML file); relative paths start at
-    ``directory``. Arguments and errors as :func:`load_scene`."""
+    """Build a :class:`Scene` from ``data``, a scene as a dict (a parsed TOML file); relative
+    paths start at ``directory``. ``source`` (the file's name, or None) prefixes the errors;
+    ``threads`` and ``output_directory`` and the errors are as in :func:`load_scene`."""
     checked = validate(data, source)
     directory = os.path.abspath(os.fspath(directory))
     builder = _Builder(checked, directory, source)

@@ -869,13 +869,14 @@ class Simulation:
             json.dumps(metadata, allow_nan=True)
         except (TypeError, ValueError) as e:
             raise TypeError(f"metadata must be JSON-able (dicts, lists, strings, numbers): {e}") from None
-        arrays, meta = checkpoint.state_of(self, metadata)
-        checkpoint.write_atomically(target, checkpoint.encode(arrays, meta))
+        arrays, meta = checkpoint._state_of(self, metadata)
+        checkpoint.write_atomically(target, checkpoint._encode(arrays, meta))
         return target
 
     @staticmethod
     def load(path, threads: int | None = None) -> "Simulation":
-        """A Simulation restored from a checkpoint written by :meth:`save`.
+        """A Simulation restored from the checkpoint file at ``path`` (a str or path), written
+        by :meth:`save`.
 
         ``threads``: the OpenMP threads of the restored Simulation (default: the saved
         setting); results are the same bits for any count. The checkpoint's ``metadata`` is
@@ -894,8 +895,8 @@ class Simulation:
         source = _checks.path("path", path)
         if threads is not None:
             threads = _checks.whole("threads", threads, minimum=1, maximum=MAX_THREADS)
-        arrays, meta = checkpoint.decode(source)
-        return checkpoint.restore(arrays, meta, threads)
+        arrays, meta = checkpoint._decode(source)
+        return checkpoint._restore(arrays, meta, threads)
 
     # ---- state (copies, in id order) ---------------------------------------------------------
     @property
