@@ -992,7 +992,7 @@ def scene_from_dict(data: dict, directory=".", *, source: str | None = None, thr
                     output_directory=None) -> Scene:
     """Build a :class:`Scene` from ``data``, a scene as a dict (a parsed TOML file); relative
     paths start at ``directory``. ``source`` (the file's name, or None) prefixes the errors;
-    ``threads`` and ``output_directory`` and the errors are as in :func:`load_scene`."""
+    ``threads``, ``output_directory`` and the errors are as in :func:`load_scene`."""
     checked = validate(data, source)
     directory = os.path.abspath(os.fspath(directory))
     builder = _Builder(checked, directory, source)
