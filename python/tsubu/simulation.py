@@ -192,7 +192,8 @@ class Simulation:
         self._materials: list[Material] = []
         self._inserters: list = []  # hooks kept across runs (add_inserter)
         self._pair_overrides: dict = {}  # (a, b) -> _core.PairParams, for checkpoints
-        #: A JSON-able dict saved with checkpoints (:meth:`save`) and restored by :meth:`load`.
+        #: A JSON-able dict (default empty) saved with checkpoints (:meth:`save`) and restored by
+        #: :meth:`load`; scene runs keep their scene there, for ``tsubu resume``.
         self.metadata: dict = {}
         self._material_index: dict[int, int] = {}
         self.gravity = gravity
@@ -616,6 +617,12 @@ class Simulation:
         The arguments are those of :class:`tsubu.Inserter` (region, rate, sizes, material,
         velocity, ...). The inserter acts in every later run of this Simulation (before the
         output hooks), and checkpoints keep its progress.
+
+        Raises
+        ------
+        TypeError, ValueError
+            A bad argument (named), as :class:`tsubu.Inserter` raises; ValueError also when
+            the material's contact law differs from the scene's (Hertz with linear).
         """
         from .insert import Inserter
 
