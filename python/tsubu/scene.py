@@ -118,13 +118,19 @@ def _join(path: str, key) -> str:
 
 
 class Node:
+    """A node of the scene format's spec (internal: the spec, ``SPEC``, is made of these)."""
+
     def check(self, value, path: str, errors: list):
+        """The checked ``value`` (numbers as floats, ...), or ``_BAD`` after appending
+        ``(path, value, message)`` to ``errors``; ``path`` is the value's path in the file."""
         raise NotImplementedError
 
     def schema(self) -> dict:
+        """This node as a JSON Schema."""
         raise NotImplementedError
 
     def kind(self) -> str:
+        """A short type for the key reference ("number", "array of 3 numbers", ...)."""
         raise NotImplementedError
 
 
