@@ -10,6 +10,11 @@ A file is a fixed header followed by a payload::
 
 A file is refused whole, before anything is built from it, when the magic, the length or the
 checksum do not match, or when its version is newer than this tsubu reads.
+
+:meth:`tsubu.Simulation.save` and :meth:`tsubu.Simulation.load` write and read these files;
+this module's public names are :class:`CheckpointError` (what ``load`` raises for a bad file),
+:data:`FORMAT_VERSION`, :data:`MAGIC` and :func:`write_atomically`. ``docs/checkpoints.md`` in
+the repository describes what is saved and how a resumed run is checked to be bit-identical.
 """
 
 from __future__ import annotations
@@ -27,7 +32,12 @@ import numpy as np
 
 from . import _core
 
+__all__ = ["CheckpointError", "FORMAT_VERSION", "MAGIC", "write_atomically"]
+
+#: The 8 bytes every checkpoint file starts with (bytes; not text, so that a text file, or one
+#: mangled by a newline conversion, is refused at once).
 MAGIC = b"\x89TSUBU\r\n"
+#: The format version this tsubu writes (an int); files with a newer one are refused.
 FORMAT_VERSION = 1
 _HEADER = struct.Struct("<8sIQ32s")
 
@@ -43,9 +53,10 @@ class CheckpointError(ValueError):
 
 
 def write_atomically(path: Path, data: bytes) -> None:
-    """Write ``data`` to ``path`` so that the file is, at every moment, either the old one or
+    """Write ``data`` (bytes) to ``path`` (a str or path) so that the file is, at every moment, either the old one or
     the complete new one: a temporary file in the same folder, flushed and fsync'ed, renamed
-    over ``path``, and the folder fsync'ed so that the rename itself survives a crash."""
+    over ``path``, and the folder fsync'ed so that the rename itself survives a crash.
+    OSError when the file cannot be written (``path`` is then left as it was)."""
     path = Path(path)
     folder = path.parent if str(path.parent) else Path(".")
     fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=folder)
@@ -73,7 +84,7 @@ def write_atomically(path: Path, data: bytes) -> None:
         os.close(dir_fd)
 
 
-def encode(arrays: dict, meta: dict) -> bytes:
+def _encode(arrays: dict, meta: dict) -> bytes:
     """The file's bytes for these arrays and this JSON-able metadata."""
     buffer = io.BytesIO()
     text = json.dumps(meta, sort_keys=True, allow_nan=True).encode()
@@ -82,7 +93,7 @@ def encode(arrays: dict, meta: dict) -> bytes:
     return _HEADER.pack(MAGIC, FORMAT_VERSION, len(payload), hashlib.sha256(payload).digest()) + payload
 
 
-def decode(path: Path) -> tuple[dict, dict]:
+def _decode(path: Path) -> tuple[dict, dict]:
     """The arrays and the metadata of a checkpoint file (CheckpointError if it is not a whole,
     intact checkpoint this tsubu can read)."""
     path = Path(path)
@@ -127,7 +138,7 @@ def _options(sim) -> dict:
             "rebuild_every_step": c.rebuild_every_step, "parallel_min": c.parallel_min}
 
 
-def state_of(sim, metadata: dict | None) -> tuple[dict, dict]:
+def _state_of(sim, metadata: dict | None) -> tuple[dict, dict]:
     """The arrays and metadata that describe ``sim`` completely."""
     core = sim._core
     arrays = {
@@ -172,7 +183,7 @@ def _version() -> str:
     return __version__
 
 
-def restore(arrays: dict, meta: dict, threads=None):
+def _restore(arrays: dict, meta: dict, threads=None):
     """A new Simulation in the state ``arrays`` and ``meta`` describe."""
     from .material import Material
     from .simulation import Simulation

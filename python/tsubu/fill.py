@@ -33,7 +33,8 @@ __all__ = ["Packing", "Box", "Cylinder", "Region", "region_from_dict", "Monodisp
 
 
 class Packing(NamedTuple):
-    """Sphere centres [m], shape (N, 3), and radii [m], shape (N,)."""
+    """What the generators return: ``positions``, the sphere centres [m], shape (N, 3), and
+    ``radii`` [m], shape (N,); ``sim.add_spheres(p.positions, p.radii, material)`` adds them."""
 
     positions: np.ndarray
     radii: np.ndarray
@@ -104,6 +105,8 @@ class Box(_RegionBase):
         return np.all((x - m >= self.lower) & (x + m <= self.upper), axis=1)
 
     def to_dict(self) -> dict:
+        """The box as a JSON/TOML-able dict, ``{"type": "box", "lower": [...], "upper": [...]}``
+        (read back by :func:`region_from_dict`)."""
         return {"type": "box", "lower": self.lower.tolist(), "upper": self.upper.tolist()}
 
     def __repr__(self) -> str:
@@ -146,6 +149,8 @@ class Cylinder(_RegionBase):
         return (room >= 0) & (rho2 <= room * room) & (d[:, k] >= m) & (d[:, k] + m <= self.height)
 
     def to_dict(self) -> dict:
+        """The cylinder as a JSON/TOML-able dict, ``{"type": "cylinder", "base": [...],
+        "radius": r, "height": h, "axis": "z"}`` (read back by :func:`region_from_dict`)."""
         return {"type": "cylinder", "base": self.base.tolist(), "radius": self.radius,
                 "height": self.height, "axis": self.axis}
 
@@ -239,6 +244,7 @@ class Region(_RegionBase):
         return ok
 
     def to_dict(self) -> dict:
+        """Always raises ValueError: a region given as a function cannot be written to a file."""
         raise ValueError("a Region given as a function cannot be written to a file: use Box or "
                          "Cylinder, or build the region in Python")
 
@@ -281,10 +287,10 @@ def _from_dict(kind: str, d, classes: dict):
 
 
 def region_from_dict(d: dict):
-    """The region a :meth:`Box.to_dict` or :meth:`Cylinder.to_dict` dict describes
+    """The region that ``d``, a :meth:`Box.to_dict` or :meth:`Cylinder.to_dict` dict, describes
     (``{"type": "box", "lower": [...], "upper": [...]}``, ``{"type": "cylinder", "base": [...],
-    "radius": r, "height": h, "axis": "z"}``). ValueError for a missing or unknown key or a bad
-    value."""
+    "radius": r, "height": h, "axis": "z"}``). TypeError when ``d`` is not a dict; ValueError for
+    a missing or unknown key or a bad value."""
     return _from_dict("region", d, {"box": Box, "cylinder": Cylinder})
 
 
@@ -356,6 +362,8 @@ class Monodisperse(_Distribution):
         return self.radius ** 3
 
     def to_dict(self) -> dict:
+        """The distribution as a JSON/TOML-able dict, ``{"type": "monodisperse", ...}`` with the
+        constructor's arguments as keys (read back by :func:`distribution_from_dict`)."""
         return {"type": "monodisperse", "radius": self.radius}
 
 
@@ -377,6 +385,8 @@ class Uniform(_Distribution):
         return (b ** 4 - a ** 4) / (4.0 * (b - a))
 
     def to_dict(self) -> dict:
+        """The distribution as a JSON/TOML-able dict, ``{"type": "uniform", ...}`` with the
+        constructor's arguments as keys (read back by :func:`distribution_from_dict`)."""
         return {"type": "uniform", "min_radius": self.min_radius, "max_radius": self.max_radius}
 
 
@@ -428,6 +438,8 @@ class Normal(_Distribution):
         return mu ** 3 + 3 * mu ** 2 * s * m[1] + 3 * mu * s ** 2 * m[2] + s ** 3 * m[3]
 
     def to_dict(self) -> dict:
+        """The distribution as a JSON/TOML-able dict, ``{"type": "normal", ...}`` with the
+        constructor's arguments as keys (read back by :func:`distribution_from_dict`)."""
         return {"type": "normal", "mean_radius": self.mean_radius, "std": self.std,
                 "min_radius": self.min_radius, "max_radius": self.max_radius}
 
@@ -463,6 +475,8 @@ class LogNormal(_Distribution):
                 * (_Phi(self._b - s3) - _Phi(self._a - s3)) / self._mass)
 
     def to_dict(self) -> dict:
+        """The distribution as a JSON/TOML-able dict, ``{"type": "lognormal", ...}`` with the
+        constructor's arguments as keys (read back by :func:`distribution_from_dict`)."""
         return {"type": "lognormal", "median_radius": self.median_radius, "sigma": self.sigma,
                 "min_radius": self.min_radius, "max_radius": self.max_radius}
 
@@ -538,6 +552,8 @@ class Tabulated(_Distribution):
         return float(1.0 / np.sum(df / (hi - lo) * 0.5 * (lo ** -2.0 - hi ** -2.0)))
 
     def to_dict(self) -> dict:
+        """The distribution as a JSON/TOML-able dict, ``{"type": "tabulated", ...}`` with the
+        constructor's arguments as keys (read back by :func:`distribution_from_dict`)."""
         return {"type": "tabulated", "radii": self.radii.tolist(),
                 "fractions": self.fractions.tolist(), "basis": self.basis}
 
@@ -555,10 +571,10 @@ _DISTRIBUTIONS = {"monodisperse": Monodisperse, "uniform": Uniform, "normal": No
 
 
 def distribution_from_dict(d: dict):
-    """The size distribution a ``to_dict()`` dict describes (``{"type": "uniform",
+    """The size distribution that ``d``, a ``to_dict()`` dict, describes (``{"type": "uniform",
     "min_radius": ..., "max_radius": ...}``; types "monodisperse", "uniform", "normal",
-    "lognormal", "tabulated" with their constructor's arguments as keys). ValueError for a
-    missing or unknown key or a bad value."""
+    "lognormal", "tabulated" with their constructor's arguments as keys). TypeError when ``d``
+    is not a dict; ValueError for a missing or unknown key or a bad value."""
     return _from_dict("sizes", d, _DISTRIBUTIONS)
 
 
@@ -586,16 +602,35 @@ _ROUNDING = 1e-9
 def lattice(region, radius, spacing=None, kind: str = "cubic", jitter=0.0, seed: int = 0) -> Packing:
     """Spheres of one ``radius`` [m] on a lattice filling ``region``, centred in its bounding box.
 
-    kind : "cubic" (simple cubic, solid fraction pi/6 = 0.524 at the default spacing) or
-        "hexagonal" (hexagonal close packing, ABAB layers along z, 0.740).
-    spacing : distance between nearest neighbours [m], >= 2 radius (default 2 radius: touching).
-    jitter : in [0, 1]: each sphere is moved by a random vector of length up to ``jitter`` x
-        (spacing - 2 radius) / 2, so spheres never overlap and stay inside the region (a
-        lattice site is kept only when the sphere fits wherever the jitter takes it).
-    seed : seed of the jitter.
+    Parameters
+    ----------
+    region : Box, Cylinder or Region
+        Where the spheres go (only sites whose whole sphere lies inside are kept).
+    radius : float
+        The spheres' radius [m] (> 0).
+    spacing : float or None
+        Distance between nearest neighbours [m], >= 2 radius (default 2 radius: touching).
+    kind : str
+        "cubic" (simple cubic, solid fraction pi/6 = 0.524 at the default spacing; the default)
+        or "hexagonal" (hexagonal close packing, ABAB layers along z, 0.740).
+    jitter : float
+        In [0, 1] (default 0): each sphere is moved by a random vector of length up to
+        ``jitter`` x (spacing - 2 radius) / 2, so spheres never overlap and stay inside the
+        region (a lattice site is kept only when the sphere fits wherever the jitter takes it).
+    seed : int
+        Seed of the jitter (default 0).
 
-    Returns a :class:`Packing` (sites in x-fastest, then y, then z order). ValueError for bad
-    values (named), including jitter > 0 with no gap (spacing = 2 radius).
+    Returns
+    -------
+    Packing
+        Sites in x-fastest, then y, then z order.
+
+    Raises
+    ------
+    ValueError
+        For bad values (named), including jitter > 0 with no gap (spacing = 2 radius).
+    TypeError
+        When ``region`` is not a region of this module.
     """
     region = _region(region)
     r = _checks.positive("radius", radius)
@@ -814,25 +849,45 @@ def random_packing(region, sizes, count=None, solid_fraction=None, seed: int = 0
                    max_attempts: int = 20_000) -> Packing:
     """A random packing of spheres without overlap in ``region``, by random sequential addition.
 
-    region : a :class:`Box`, :class:`Cylinder` or :class:`Region`.
-    sizes : a size distribution (:class:`Monodisperse`, :class:`Uniform`, :class:`Normal`,
-        :class:`LogNormal`, :class:`Tabulated`), or a radius [m] for a monodisperse packing.
-    count : the number of spheres; or
-    solid_fraction : the sphere volume over the region's volume to reach (in (0, 1)): radii are
-        drawn until their volume reaches it (so the fraction reached exceeds it by less than
-        one sphere's volume over the region's). Exactly one of count and solid_fraction.
-    seed : the packing is the same for a seed, and another for another seed.
-    max_attempts : random positions tried in a row without finding room before giving up (>= 1).
-
     Radii are drawn first, then placed largest first, each at a uniformly random point where it
     lies inside the region and overlaps nothing placed before (candidates are tested in batches
-    against a cell grid; spheres within 2% of each other's radius share a batch's points). Monodisperse random sequential addition jams near a solid fraction of
-    0.38 (less in a small container, whose walls leave gaps); docs/filling.md gives measured
-    limits and speeds. Returns a :class:`Packing`, largest sphere first.
+    against a cell grid; spheres within 2% of each other's radius share a batch's points).
+    Monodisperse random sequential addition jams near a solid fraction of 0.38 (less in a small
+    container, whose walls leave gaps); docs/filling.md gives measured limits and speeds.
 
-    Raises ValueError, saying what was reached, when the spheres do not all fit (ask for less,
-    use a larger region, or use :func:`lattice` or pour and settle for denser packings), and
-    for bad arguments (named).
+    Parameters
+    ----------
+    region : Box, Cylinder or Region
+        Where the spheres go.
+    sizes : size distribution or float
+        A size distribution (:class:`Monodisperse`, :class:`Uniform`, :class:`Normal`,
+        :class:`LogNormal`, :class:`Tabulated`), or a radius [m] for a monodisperse packing.
+    count : int or None
+        The number of spheres. Exactly one of ``count`` and ``solid_fraction``.
+    solid_fraction : float or None
+        The sphere volume over the region's volume to reach, in (0, 1): radii are drawn until
+        their volume reaches it (so the fraction reached exceeds it by less than one sphere's
+        volume over the region's).
+    seed : int
+        The packing is the same for a seed, and another for another seed (default 0).
+    max_attempts : int
+        Random positions tried in a row without finding room before giving up (>= 1, default
+        20000).
+
+    Returns
+    -------
+    Packing
+        Largest sphere first.
+
+    Raises
+    ------
+    ValueError
+        Saying what was reached, when the spheres do not all fit (ask for less, use a larger
+        region, or use :func:`lattice` or pour and settle for denser packings), and for bad
+        arguments (named).
+    TypeError
+        When both or neither of ``count`` and ``solid_fraction`` are given, or ``region`` or
+        ``sizes`` is of the wrong kind.
     """
     region = _region(region)
     sizes = _sizes(sizes)

@@ -27,15 +27,55 @@ import time as _time
 from pathlib import Path
 from typing import Protocol
 
+# The rest of this module is the run loop's own machinery (progress bar, periodic checkpoints).
+__all__ = ["Hook"]
+
 
 class Hook(Protocol):
-    """The protocol of a run hook (see the module's docstring)."""
+    """The protocol of a run hook: any object with these three methods (no need to subclass).
 
-    def next_step(self, sim) -> "int | None": ...
+    Each method takes the running :class:`tsubu.Simulation` as its one argument, ``sim``. The
+    writers of :mod:`tsubu.output` and :class:`tsubu.insert.Inserter` are hooks. Hooks that only
+    read the state leave the run's results unchanged, bit for bit. Example: record the kinetic
+    energy every 100 steps::
 
-    def act(self, sim) -> None: ...
+        class EnergyLog:
+            def __init__(self):
+                self.energies, self.last = [], None
 
-    def close(self, sim) -> None: ...
+            def next_step(self, sim):
+                due = -(-sim.step_count // 100) * 100  # the next multiple of 100
+                return due if due != self.last else due + 100
+
+            def act(self, sim):
+                self.energies.append(sim.energy()["kinetic"])
+                self.last = sim.step_count
+
+            def close(self, sim):
+                pass
+
+        sim.run(time=0.1, output=EnergyLog())
+    """
+
+    def next_step(self, sim) -> "int | None":
+        """The absolute step count (>= ``sim.step_count``) at which :meth:`act` must next be
+        called, or None for never. Called before every stretch of the run, so the answer may
+        change as the run goes on. A hook that writes every k steps returns the next multiple
+        of k, the current step included unless it has already acted there (two consecutive
+        runs must not act twice at the same step)."""
+        ...
+
+    def act(self, sim) -> None:
+        """Called when ``sim.step_count`` equals what :meth:`next_step` returned: the state is
+        that of a completed step, every array readable. The hook may read the state, write
+        files, add spheres or move walls. Afterwards :meth:`next_step` must return a later step
+        (or None). An exception raised here ends the run (:meth:`close` is still called)."""
+        ...
+
+    def close(self, sim) -> None:
+        """Called once when the run returns or raises (Ctrl-C included): flush and close files.
+        A hook given to several runs is closed at the end of each."""
+        ...
 
 
 def check_hook(hook, name: str = "output") -> None:

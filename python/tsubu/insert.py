@@ -67,11 +67,15 @@ class Inserter:
     seed : int
         The same seed gives the same spheres, at the same places, whatever the thread count.
 
-    Properties: ``inserted`` (spheres so far), ``inserted_mass`` [kg], ``pending`` (spheres
-    due but not yet placed), ``interval`` (None until resolved), ``finished``.
+    Notes
+    -----
+    Its properties :attr:`inserted` (spheres so far), :attr:`inserted_mass` [kg],
+    :attr:`pending` (spheres due but not yet placed), :attr:`interval` (None until resolved)
+    and :attr:`finished` tell how far it got.
 
     It is a run hook (:mod:`tsubu.hooks`): ``next_step(sim)`` gives the step of the next
-    event, ``act(sim)`` inserts, ``close(sim)`` does nothing.
+    event, ``act(sim)`` inserts, ``close(sim)`` does nothing. Its progress is saved in
+    checkpoints (:meth:`tsubu.Simulation.save`), so a resumed run pours on where it stopped.
     """
 
     def __init__(self, region, rate, sizes, material, velocity=(0.0, 0.0, 0.0), basis: str = "number",

@@ -128,8 +128,8 @@ def contact_data(sim, contacts: dict | None = None, positions=None) -> dict:
 
 
 def scene_extent(sim, margin: float | None = None) -> tuple[np.ndarray, np.ndarray]:
-    """The box (lower, upper) [m] that the wall rectangles cover: the spheres' bounding box
-    (centres +- the largest radius) joined with the planes' points, widened on every side by
+    """The box (lower, upper) [m] that the wall rectangles of the Simulation ``sim`` cover: the
+    spheres' bounding box (centres +- the largest radius) joined with the planes' points, widened on every side by
     ``margin`` [m] (default: a tenth of the box's largest side, at least 2 largest radii; 1 m
     for an empty scene)."""
     points = [np.array(sim.plane(k)["point"]) for k in range(sim.plane_count)]
@@ -522,6 +522,8 @@ class VTKOutput(_EveryK):
     extent : (lower, upper) 3-vectors [m] or None
         The box the wall rectangles cover; None: :func:`scene_extent` of each frame.
 
+    Notes
+    -----
     Each frame writes the files of :func:`write_vtk`; after it the collections
     ``<name>.pvd``, ``<name>_contacts.pvd``, ``<name>_walls.pvd`` (the frames' simulated times
     and files: open these in ParaView) are rewritten under a temporary name, flushed to disk and
@@ -529,8 +531,12 @@ class VTKOutput(_EveryK):
     exists (a run resumed from a checkpoint into the same directory), the frames it lists before
     the first step written are kept and those from that step on are replaced.
 
-    Raises ImportError when pyevtk is not installed (``pip install 'tsubu[vtk]'``), at
-    construction; TypeError / ValueError for a bad ``every``, ``name`` or ``extent``.
+    Raises
+    ------
+    ImportError
+        When pyevtk is not installed (``pip install 'tsubu[vtk]'``), at construction.
+    TypeError, ValueError
+        For a bad ``every``, ``name`` or ``extent``.
     """
 
     def __init__(self, directory, every: int, name: str = "particles", contacts: bool = True,
@@ -617,9 +623,9 @@ def _write_table(path: str, arrays: dict, keys) -> None:
 
 
 def save_csv(sim, path, contacts_path=None) -> str:
-    """Write the spheres' current state as a CSV table (one row per sphere, in id order, a
-    header row of column names) and return its path; with ``contacts_path``, also the contact
-    network as a second table there.
+    """Write the current state of the spheres of the Simulation ``sim`` as a CSV table at
+    ``path`` (one row per sphere, in id order, a header row of column names) and return its
+    path; with ``contacts_path``, also the contact network as a second table there.
 
     Columns: ``id``, ``position_x``, ``position_y``, ``position_z``, ``velocity_*``,
     ``angular_velocity_*``, ``radius``, ``mass``, ``material``, ``force_*``, ``torque_*``,

@@ -2,7 +2,7 @@
 
 A scene file names the materials, the walls, where the spheres come from (a generator, an
 inserter or a file), the simulation's options, how long to run and what to write. The format is
-defined once, by the declarative spec :data:`SPEC` in this module: the loader validates with it
+defined once, by the declarative spec ``SPEC`` in this module: the loader validates with it
 (every bad or unknown key is reported with its path in the file and its value), and the JSON
 Schema (``docs/scene.schema.json``) and the key reference in ``docs/scene-format.md`` are
 generated from it (``python -m tsubu.scene write-docs docs`` rewrites both).
@@ -11,9 +11,11 @@ Values that pass the spec are then handed to tsubu's own constructors (:class:`t
 :class:`tsubu.Simulation`, ``add_plane``, the generators of :mod:`tsubu.fill`, ...); a
 ValueError or TypeError they raise is reported at the path of the argument it names.
 
-Public functions: :func:`load_scene` (file to a ready :class:`Scene`), :func:`scene_from_dict`,
-:func:`validate` (checks only), :func:`json_schema`, :func:`reference_markdown`, and
-:func:`resume` (a checkpoint written by a scene run back to a :class:`Scene`).
+The public API (``__all__``): :func:`load_scene` (file to a ready :class:`Scene`),
+:func:`scene_from_dict`, :func:`read_toml`, :func:`validate` (checks only), :func:`resume` (a
+checkpoint written by a scene run back to a :class:`Scene`), :class:`SceneError` and
+:data:`MISSING`, :data:`FORMAT_VERSION`, and the format's documents :func:`json_schema` and
+:func:`reference_markdown`. The spec's node classes (``Number``, ``Table``, ...) are internal.
 """
 
 from __future__ import annotations
@@ -34,7 +36,11 @@ from . import _core
 from .material import Material
 from .simulation import Simulation
 
-# The version of the scene format, stored in checkpoints' metadata.
+__all__ = ["load_scene", "scene_from_dict", "read_toml", "validate", "resume", "Scene", "SceneError",
+           "MISSING", "FORMAT_VERSION", "json_schema", "reference_markdown"]
+
+#: The version of the scene format (an int), stored in the metadata of the checkpoints that scene
+#: runs write; :func:`resume` refuses a newer one.
 FORMAT_VERSION = 1
 
 
@@ -54,6 +60,7 @@ class SceneError(ValueError):
         super().__init__("\n".join(self.lines()))
 
     def lines(self) -> list[str]:
+        """The errors as lines of text, ``<source>: <path> = <value>: <message>`` each."""
         prefix = f"{self.source}: " if self.source else ""
         return [prefix + _error_line(path, value, message) for path, value, message in self.errors]
 
@@ -63,6 +70,8 @@ class _Missing:
         return "MISSING"
 
 
+#: The value of a :class:`SceneError` entry for a key that is missing (or an error about the file
+#: as a whole), where there is no value to show.
 MISSING = _Missing()
 _BAD = object()  # a value that failed its check (the error is already recorded)
 
@@ -109,13 +118,19 @@ def _join(path: str, key) -> str:
 
 
 class Node:
+    """A node of the scene format's spec (internal: the spec, ``SPEC``, is made of these)."""
+
     def check(self, value, path: str, errors: list):
+        """The checked ``value`` (numbers as floats, ...), or ``_BAD`` after appending
+        ``(path, value, message)`` to ``errors``; ``path`` is the value's path in the file."""
         raise NotImplementedError
 
     def schema(self) -> dict:
+        """This node as a JSON Schema."""
         raise NotImplementedError
 
     def kind(self) -> str:
+        """A short type for the key reference ("number", "array of 3 numbers", ...)."""
         raise NotImplementedError
 
 
@@ -822,9 +837,10 @@ def read_toml(path) -> dict:
 
 
 def validate(data, source: str | None = None) -> dict:
-    """Check a scene (the dict of a parsed TOML file) against :data:`SPEC` and the references
-    between its parts (material names); returns the checked scene (numbers as floats, vectors
-    as lists). Raises SceneError listing every bad, missing or unknown key."""
+    """Check a scene (``data``, the dict of a parsed TOML file) against the format's spec and the
+    references between its parts (material names); returns the checked scene (numbers as floats,
+    vectors as lists). Raises SceneError listing every bad, missing or unknown key, with
+    ``source`` (the file's name, or None) in front of each line."""
     errors: list = []
     checked = SPEC.check(data, "", errors)
     materials = data.get("materials") if isinstance(data, dict) else None
@@ -867,11 +883,27 @@ def _order(data: dict, path: str) -> tuple:
 
 @dataclasses.dataclass
 class Scene:
-    """A scene ready to run: the Simulation (with its spheres, walls and inserters), the hooks that
-    write output, the checkpoint settings, and the simulated time at which the run ends.
+    """A scene ready to run, as :func:`load_scene`, :func:`scene_from_dict` and :func:`resume`
+    make it (not meant to be constructed by hand); :meth:`run` runs it.
 
-    ``data`` is the scene as read (a JSON-able dict), ``directory`` the folder the scene's relative
-    paths start from, ``output_directory`` where output and checkpoints go.
+    Attributes
+    ----------
+    simulation : tsubu.Simulation
+        The Simulation, with its spheres, walls and inserters.
+    end_time : float
+        The simulated time [s] at which the run ends.
+    output : list
+        The hooks that write output (:mod:`tsubu.output` writers).
+    checkpoint : dict or None
+        The checkpoint settings (``path``, ``every`` in steps or None, ``keep``), or None.
+    output_directory : str
+        Where output and checkpoints go.
+    data : dict
+        The scene as read (JSON-able).
+    directory : str
+        The folder the scene's relative paths start from.
+    source : str or None
+        The scene file's name.
     """
 
     simulation: Simulation
@@ -893,8 +925,9 @@ class Scene:
     def run(self, until: float | None = None, progress: bool | None = None) -> Simulation:
         """Run to simulated time ``until`` [s] (default :attr:`end_time`) with the scene's output
         and checkpoints; returns the Simulation. An ``until`` beyond :attr:`end_time` becomes the
-        new end time (the one the checkpoints record, which ``tsubu resume`` runs to). A final checkpoint is written at the end when the
-        scene has a [checkpoint] table. Raises InstabilityError (the run went unstable) and
+        new end time (the one the checkpoints record, which ``tsubu resume`` runs to). A final
+        checkpoint is written at the end when the scene has a [checkpoint] table. ``progress``
+        is that of :meth:`tsubu.Simulation.run` (None: a bar on an interactive terminal). Raises InstabilityError (the run went unstable) and
         KeyboardInterrupt (Ctrl-C; a checkpoint is written first when the scene has one)."""
         sim = self.simulation
         end = self.end_time if until is None else until
@@ -937,12 +970,23 @@ def _attach_metadata(sim: Simulation, metadata: dict) -> None:
 def load_scene(path, *, threads: int | None = None, output_directory=None) -> Scene:
     """Read, check and build the scene file at ``path`` (TOML; docs/scene-format.md).
 
+    Parameters
+    ----------
+    path : str or path-like
+        The scene file.
     threads : int or None
         Overrides ``simulation.threads``.
     output_directory : path or None
         Overrides ``output.directory`` (relative paths: to the current directory).
 
-    Raises SceneError naming the path and value of every bad, missing or unknown key.
+    Returns
+    -------
+    Scene
+
+    Raises
+    ------
+    SceneError
+        Naming the path and value of every bad, missing or unknown key.
     """
     source = os.fspath(path)
     data = read_toml(source)
@@ -952,8 +996,9 @@ def load_scene(path, *, threads: int | None = None, output_directory=None) -> Sc
 
 def scene_from_dict(data: dict, directory=".", *, source: str | None = None, threads: int | None = None,
                     output_directory=None) -> Scene:
-    """Build a :class:`Scene` from a scene as a dict (a parsed TOML file); relative paths start at
-    ``directory``. Arguments and errors as :func:`load_scene`."""
+    """Build a :class:`Scene` from ``data``, a scene as a dict (a parsed TOML file); relative
+    paths start at ``directory``. ``source`` (the file's name, or None) prefixes the errors;
+    ``threads``, ``output_directory`` and the errors are as in :func:`load_scene`."""
     checked = validate(data, source)
     directory = os.path.abspath(os.fspath(directory))
     builder = _Builder(checked, directory, source)
@@ -1263,8 +1308,10 @@ def _output():
 def resume(checkpoint, *, threads: int | None = None, output_directory=None) -> Scene:
     """The :class:`Scene` of a checkpoint written by a scene run (``tsubu run``): the Simulation as
     saved, with the scene's output and checkpoint settings, and the end time it was to reach.
-    Raises SceneError for a checkpoint that was not written by a scene run (or whose scene no
-    longer checks), and whatever ``Simulation.load`` raises for a bad file."""
+    ``threads`` and ``output_directory`` override the saved ones, as in :func:`load_scene`.
+    Raises SceneError for a ``checkpoint`` that was not written by a scene run (or whose scene no
+    longer checks), and whatever ``Simulation.load`` raises for a bad file
+    (:class:`tsubu.checkpoint.CheckpointError`)."""
     source = os.fspath(checkpoint)
     sim = Simulation.load(source)
     meta = getattr(sim, "metadata", None) or {}
@@ -1293,7 +1340,7 @@ def resume(checkpoint, *, threads: int | None = None, output_directory=None) -> 
 # ---- the format's documents --------------------------------------------------------------------
 
 def json_schema() -> dict:
-    """The scene format as a JSON Schema (draft 2020-12), generated from :data:`SPEC`."""
+    """The scene format as a JSON Schema (draft 2020-12), generated from the format's spec."""
     schema = SPEC.schema()
     return {"$schema": "https://json-schema.org/draft/2020-12/schema",
             "$id": "https://tsubu/scene.schema.json", "title": "tsubu scene file",
@@ -1304,7 +1351,7 @@ def json_schema() -> dict:
 
 def reference_markdown() -> str:
     """The key reference of docs/scene-format.md (every table and key: type, unit, default,
-    meaning), generated from :data:`SPEC`."""
+    meaning), generated from the format's spec."""
     out: list[str] = []
 
     def table(heading: str, node: Table, note: str = "") -> None:

@@ -192,7 +192,8 @@ class Simulation:
         self._materials: list[Material] = []
         self._inserters: list = []  # hooks kept across runs (add_inserter)
         self._pair_overrides: dict = {}  # (a, b) -> _core.PairParams, for checkpoints
-        #: A JSON-able dict saved with checkpoints (:meth:`save`) and restored by :meth:`load`.
+        #: A JSON-able dict (default empty) saved with checkpoints (:meth:`save`) and restored by
+        #: :meth:`load`; scene runs keep their scene there, for ``tsubu resume``.
         self.metadata: dict = {}
         self._material_index: dict[int, int] = {}
         self.gravity = gravity
@@ -616,6 +617,12 @@ class Simulation:
         The arguments are those of :class:`tsubu.Inserter` (region, rate, sizes, material,
         velocity, ...). The inserter acts in every later run of this Simulation (before the
         output hooks), and checkpoints keep its progress.
+
+        Raises
+        ------
+        TypeError, ValueError
+            A bad argument (named), as :class:`tsubu.Inserter` raises; ValueError also when
+            the material's contact law differs from the scene's (Hertz with linear).
         """
         from .insert import Inserter
 
@@ -869,13 +876,14 @@ class Simulation:
             json.dumps(metadata, allow_nan=True)
         except (TypeError, ValueError) as e:
             raise TypeError(f"metadata must be JSON-able (dicts, lists, strings, numbers): {e}") from None
-        arrays, meta = checkpoint.state_of(self, metadata)
-        checkpoint.write_atomically(target, checkpoint.encode(arrays, meta))
+        arrays, meta = checkpoint._state_of(self, metadata)
+        checkpoint.write_atomically(target, checkpoint._encode(arrays, meta))
         return target
 
     @staticmethod
     def load(path, threads: int | None = None) -> "Simulation":
-        """A Simulation restored from a checkpoint written by :meth:`save`.
+        """A Simulation restored from the checkpoint file at ``path`` (a str or path), written
+        by :meth:`save`.
 
         ``threads``: the OpenMP threads of the restored Simulation (default: the saved
         setting); results are the same bits for any count. The checkpoint's ``metadata`` is
@@ -894,8 +902,8 @@ class Simulation:
         source = _checks.path("path", path)
         if threads is not None:
             threads = _checks.whole("threads", threads, minimum=1, maximum=MAX_THREADS)
-        arrays, meta = checkpoint.decode(source)
-        return checkpoint.restore(arrays, meta, threads)
+        arrays, meta = checkpoint._decode(source)
+        return checkpoint._restore(arrays, meta, threads)
 
     # ---- state (copies, in id order) ---------------------------------------------------------
     @property
