@@ -32,7 +32,7 @@ import numpy as np
 
 from . import _core
 
-__all__ = ["CheckpointError", "FORMAT_VERSION", "MAGIC", "write_atomically"]
+__all__ = ["CheckpointError", "FORMAT_VERSION", "MAGIC", "write_atomically", "sync_folder"]
 
 #: The 8 bytes every checkpoint file starts with (bytes; not text, so that a text file, or one
 #: mangled by a newline conversion, is refused at once).
@@ -72,9 +72,15 @@ def write_atomically(path: Path, data: bytes) -> None:
         except OSError:
             pass
         raise
+    sync_folder(folder)
+
+
+def sync_folder(folder) -> None:
+    """fsync a folder, so that a rename into it survives a crash (where the platform has
+    directory handles; elsewhere nothing)."""
     try:
         dir_fd = os.open(folder, os.O_RDONLY)
-    except OSError:  # a platform without directory handles
+    except OSError:
         return
     try:
         os.fsync(dir_fd)

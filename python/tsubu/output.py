@@ -28,6 +28,8 @@ import xml.etree.ElementTree as ET
 
 import numpy as np
 
+from .checkpoint import sync_folder
+
 __all__ = [
     "VTKOutput", "NpzOutput", "CSVOutput", "write_vtk", "save_npz", "save_csv",
     "particle_data", "contact_data", "wall_data", "scene_extent",
@@ -285,6 +287,7 @@ def _write_atomically(final_path: str, write) -> None:
         if os.path.exists(tmp):
             os.remove(tmp)
         raise
+    sync_folder(directory or ".")  # the rename itself survives a crash
 
 
 def _fsync(path: str) -> None:
