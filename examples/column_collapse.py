@@ -52,6 +52,11 @@ GATE_SPEED = 20.0  # in units of sqrt(g H0)
 REST_SPEED = 0.005  # m/s: at rest when no grain is faster (about 3 % of sqrt(g d))
 
 
+def read_npz(path) -> dict:
+    """The arrays of an .npz file, the file closed again."""
+    with np.load(path) as z:
+        return {k: z[k] for k in z.files}
+
 def materials():
     grain = tsubu.Material(density=DENSITY, kn=STIFFNESS, restitution=RESTITUTION,
                            friction=FRICTION, rolling_friction=ROLLING_FRICTION, name="grain")
@@ -210,7 +215,7 @@ def plot(out: str, figure: str) -> None:
     ax_scaling = fig.add_subplot(grid[1, 1])
 
     tallest = max(summary, key=lambda s: s["aspect_ratio"])
-    data = np.load(os.path.join(out, f"column_a{tallest['nominal_aspect_ratio']:g}.npz"))
+    data = read_npz(os.path.join(out, f"column_a{tallest['nominal_aspect_ratio']:g}.npz"))
     length = tallest["length"]
     colour = data["initial_positions"][:, 2] / tallest["height"]  # initial height: layers
     for positions, alpha in ((data["initial_positions"], 0.25), (data["final_positions"], 1.0)):
@@ -231,7 +236,7 @@ def plot(out: str, figure: str) -> None:
                       f"height) and the deposit; gate at x = L0 (dotted), run-out (dashed)")
 
     for s in summary:
-        d = np.load(os.path.join(out, f"column_a{s['nominal_aspect_ratio']:g}.npz"))
+        d = read_npz(os.path.join(out, f"column_a{s['nominal_aspect_ratio']:g}.npz"))
         ax_profile.plot(d["profile_x"] / s["length"], d["profile_h"] / s["length"],
                         drawstyle="steps-mid", label=f"a = {s['aspect_ratio']:.2f}")
     ax_profile.set(xlabel="x / L0", ylabel="h / L0", title="Final profiles h(x)")

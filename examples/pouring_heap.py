@@ -54,6 +54,11 @@ SOURCE_SPEED = 0.3  # m/s, downwards
 REST_SPEED = 0.005  # m/s
 
 
+def read_npz(path) -> dict:
+    """The arrays of an .npz file, the file closed again."""
+    with np.load(path) as z:
+        return {k: z[k] for k in z.files}
+
 def mean_diameter() -> float:
     return 2.0 * float(np.mean(SIZES.sample(100_000, np.random.default_rng(0))))
 
@@ -207,7 +212,7 @@ def plot(out: str, figure: str) -> None:
 
     with open(os.path.join(out, "pouring_heap.json")) as f:
         s = json.load(f)
-    data = np.load(os.path.join(out, "pouring_heap.npz"))
+    data = read_npz(os.path.join(out, "pouring_heap.npz"))
     x, r = data["positions"] * 1e3, data["radii"] * 1e3  # mm
     fig, (ax_view, ax_phi) = plt.subplots(1, 2, figsize=(13, 4.6),
                                           gridspec_kw=dict(width_ratios=(3, 1)))

@@ -15,6 +15,12 @@ import pytest
 EXAMPLES = pathlib.Path(__file__).resolve().parent.parent / "examples"
 
 
+def read_npz(path) -> dict:
+    """The arrays of an .npz file, the file closed again."""
+    with np.load(path) as z:
+        return {k: z[k] for k in z.files}
+
+
 def load_example(name: str):
     """The example script as a module (examples/ is not a package)."""
     spec = importlib.util.spec_from_file_location(f"tsubu_example_{name}", EXAMPLES / f"{name}.py")
@@ -84,7 +90,7 @@ def test_column_collapse_run_out(tmp_path):
     assert 0.6 * s["aspect_ratio"] < s["normalised_run_out"] < 2.4 * s["aspect_ratio"], s
     # The column has spread: lower than it was, and no grain left the channel.
     assert s["final_height"] < 0.95 * s["height"]
-    data = np.load(tmp_path / "column_a1.npz")
+    data = read_npz(tmp_path / "column_a1.npz")
     final, radii = data["final_positions"], data["radii"]
     assert len(final) == s["grains"] and np.all(final[:, 2] > 0)
     assert np.all((final[:, 1] > 0) & (final[:, 1] < s["width"]))
@@ -97,7 +103,7 @@ def test_pouring_heap(tmp_path):
     module = load_example("pouring_heap")
     s = module.main(["--quick", "--no-figure", "--out", str(tmp_path)])
     assert s["at_rest"] and s["grains"] == s["inserted"] == 300
-    data = np.load(tmp_path / "pouring_heap.npz")
+    data = read_npz(tmp_path / "pouring_heap.npz")
     x, r = data["positions"], data["radii"]
     assert np.all((r >= module.SIZES.min_radius) & (r <= module.SIZES.max_radius))
     assert math.isclose(s["inserted_mass"], float(np.sum(module.DENSITY * 4 / 3 * math.pi * r ** 3)),

@@ -415,9 +415,9 @@ def test_run_writes_the_output_the_scene_asks_for(tmp_path):
     every = round(0.002 / sim.dt)
     assert {f for f in files if re.fullmatch(r"state_\d+\.csv", f)} == {
         f"state_{k}.csv" for k in range(0, steps + 1, every)}
-    last = np.load(tmp_path / f"state_{steps - steps % 200}.npz")
-    if steps % 200 == 0:
-        assert np.array_equal(last["position"], sim.positions)
+    with np.load(tmp_path / f"state_{steps - steps % 200}.npz") as last:
+        if steps % 200 == 0:
+            assert np.array_equal(last["position"], sim.positions)
 
 
 def test_run_writes_output_and_checkpoints_and_resume_continues_bit_for_bit(tmp_path):
