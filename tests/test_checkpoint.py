@@ -97,6 +97,17 @@ def test_the_scene_comes_back_whole(tmp_path):
     assert back.energy()["dissipated"] == sim.energy()["dissipated"] > 0
 
 
+def test_the_last_pair_override_wins_in_either_order(tmp_path):
+    sim = box_scene("rough")
+    bead, wall = sim.materials
+    sim.set_pair(bead, wall, friction=0.1)
+    sim.set_pair(wall, bead, friction=0.2)
+    sim.set_pair(bead, wall, friction=0.3)
+    sim.save(tmp_path / "p.tsubu")
+    back = tsubu.Simulation.load(tmp_path / "p.tsubu")
+    assert back.pair_parameters(*back.materials)["friction"] == 0.3
+
+
 def test_a_scene_that_never_ran_round_trips(tmp_path):
     sim = box_scene("rough")
     sim.save(tmp_path / "fresh.tsubu")

@@ -346,7 +346,7 @@ class Simulation:
         _check_uniform_range(p["roughness_distribution"], p["roughness"])
         params = _to_core(_core.PairParams, p)
         self._core.set_pair_parameters(a, b, params)
-        self._pair_overrides[(a, b)] = params
+        self._pair_overrides[(min(a, b), max(a, b))] = params  # one entry per pair: the last set
 
     def pair_parameters(self, material_a: Material, material_b: Material) -> dict:
         """The contact parameters used between two materials (mixed, or as overridden).
