@@ -304,62 +304,57 @@ def _field_data(sim) -> dict:
             "step": np.array([sim.step_count], dtype=np.int64)}
 
 
-def _write_particles(vtk, path: str, sim, particles: dict) -> None:
-    n = particles["id"].shape[0]
-    w = _VTKWriter(vtk, path, vtk.VtkUnstructuredGrid)
+def _write_piece(vtk, path: str, grid, sim, counts: dict, sections: dict, location: str,
+                 scalars: str, vectors: str, arrays: dict) -> None:
+    """One VTK XML file of one piece: its counts (``npoints``, ``ncells``, ...), its geometry
+    sections in order, and the data arrays at ``location`` ("Point" or "Cell")."""
+    w = _VTKWriter(vtk, path, grid)
     w.file.openGrid()
     w.field_data(_field_data(sim))
-    w.file.openPiece(npoints=str(n), ncells=str(n))  # strings: pyevtk drops a count of 0
-    w.section("Points", {"points": particles["position"]})
-    w.section("Cells", {"connectivity": np.arange(n, dtype=np.int64),
-                        "offsets": np.arange(1, n + 1, dtype=np.int64),
-                        "types": np.full(n, vtk.VtkVertex.tid, dtype=np.uint8)})
-    w.file.openData("Point", scalars="radius", vectors="velocity")
-    for key in ("id", "velocity", "angular_velocity", "radius", "mass", "material", "force",
-                "torque", "coordination"):
-        w.header(key, particles[key])
-    w.file.closeData("Point")
+    w.file.openPiece(**{k: str(v) for k, v in counts.items()})  # strings: pyevtk drops a count of 0
+    for section, values in sections.items():
+        w.section(section, values)
+    w.file.openData(location, scalars=scalars, vectors=vectors)
+    for key, values in arrays.items():
+        w.header(key, values)
+    w.file.closeData(location)
     w.file.closePiece()
     w.file.closeGrid()
     w.save()
+
+
+def _write_particles(vtk, path: str, sim, particles: dict) -> None:
+    n = particles["id"].shape[0]
+    _write_piece(vtk, path, vtk.VtkUnstructuredGrid, sim, {"npoints": n, "ncells": n}, {
+        "Points": {"points": particles["position"]},
+        "Cells": {"connectivity": np.arange(n, dtype=np.int64),
+                  "offsets": np.arange(1, n + 1, dtype=np.int64),
+                  "types": np.full(n, vtk.VtkVertex.tid, dtype=np.uint8)},
+    }, "Point", "radius", "velocity", {key: particles[key] for key in (
+        "id", "velocity", "angular_velocity", "radius", "mass", "material", "force", "torque",
+        "coordination")})
 
 
 def _write_contacts(vtk, path: str, sim, network: dict) -> None:
     m = network["i"].shape[0]
-    w = _VTKWriter(vtk, path, vtk.VtkPolyData)
-    w.file.openGrid()
-    w.field_data(_field_data(sim))
-    w.file.openPiece(npoints=str(2 * m), nlines=str(m))
-    w.section("Points", {"points": np.stack([network["start"], network["end"]], axis=1).reshape(-1, 3)})
-    w.section("Lines", {"connectivity": np.arange(2 * m, dtype=np.int64),
-                        "offsets": np.arange(2, 2 * m + 1, 2, dtype=np.int64)})
-    w.file.openData("Cell", scalars="normal_force", vectors="force")
-    for key in ("normal_force", "normal_force_vector", "tangential_force", "force", "overlap",
-                "normal", "i", "j", "wall"):
-        w.header(key, network[key])
-    w.file.closeData("Cell")
-    w.file.closePiece()
-    w.file.closeGrid()
-    w.save()
+    _write_piece(vtk, path, vtk.VtkPolyData, sim, {"npoints": 2 * m, "nlines": m}, {
+        "Points": {"points": np.stack([network["start"], network["end"]], axis=1).reshape(-1, 3)},
+        "Lines": {"connectivity": np.arange(2 * m, dtype=np.int64),
+                  "offsets": np.arange(2, 2 * m + 1, 2, dtype=np.int64)},
+    }, "Cell", "normal_force", "force", {key: network[key] for key in (
+        "normal_force", "normal_force_vector", "tangential_force", "force", "overlap", "normal",
+        "i", "j", "wall")})
 
 
 def _write_walls(vtk, path: str, sim, walls: dict) -> None:
     count = walls["wall"].shape[0]
-    w = _VTKWriter(vtk, path, vtk.VtkPolyData)
-    w.file.openGrid()
-    w.field_data(_field_data(sim))
-    w.file.openPiece(npoints=str(4 * count), npolys=str(count))
-    w.section("Points", {"points": walls["corners"].reshape(-1, 3)})
-    w.section("Polys", {"connectivity": np.arange(4 * count, dtype=np.int64),
-                        "offsets": np.arange(4, 4 * count + 1, 4, dtype=np.int64)})
-    w.section("PointData", {"velocity": walls["corner_velocity"].reshape(-1, 3)})
-    w.file.openData("Cell", scalars="wall", vectors="normal")
-    for key in ("wall", "material", "normal", "point", "velocity", "angular_velocity"):
-        w.header(key, walls[key])
-    w.file.closeData("Cell")
-    w.file.closePiece()
-    w.file.closeGrid()
-    w.save()
+    _write_piece(vtk, path, vtk.VtkPolyData, sim, {"npoints": 4 * count, "npolys": count}, {
+        "Points": {"points": walls["corners"].reshape(-1, 3)},
+        "Polys": {"connectivity": np.arange(4 * count, dtype=np.int64),
+                  "offsets": np.arange(4, 4 * count + 1, 4, dtype=np.int64)},
+        "PointData": {"velocity": walls["corner_velocity"].reshape(-1, 3)},
+    }, "Cell", "wall", "normal", {key: walls[key] for key in (
+        "wall", "material", "normal", "point", "velocity", "angular_velocity")})
 
 
 def write_vtk(sim, directory, name: str = "particles", contacts: bool = True, walls: bool = True,
