@@ -28,7 +28,6 @@ as a particle file for a scene: examples/scenes/column_collapse.toml) and the fi
 
 from __future__ import annotations
 
-import argparse
 import json
 import math
 import os
@@ -38,6 +37,8 @@ import time
 import numpy as np
 
 import tsubu
+
+from example_support import arguments, figure_path, pyplot, read_npz, save_figure, write_json  # beside this script
 
 GRAVITY = 9.81  # m/s^2
 DIAMETER = 2e-3  # m, mean grain diameter d
@@ -51,11 +52,6 @@ WIDTH = 4.0  # channel width, in diameters
 GATE_SPEED = 20.0  # in units of sqrt(g H0)
 REST_SPEED = 0.005  # m/s: at rest when no grain is faster (about 3 % of sqrt(g d))
 
-
-def read_npz(path) -> dict:
-    """The arrays of an .npz file, the file closed again."""
-    with np.load(path) as z:
-        return {k: z[k] for k in z.files}
 
 def materials():
     grain = tsubu.Material(density=DENSITY, kn=STIFFNESS, restitution=RESTITUTION,
@@ -190,20 +186,13 @@ def write_outputs(results: list, out: str) -> dict:
         np.savez(os.path.join(out, f"column_a{res['nominal_aspect_ratio']:g}_start.npz"),
                  positions=res["initial_positions"], radii=res["radii"])
         summary.append({k: v for k, v in res.items() if k not in arrays})
-    with open(os.path.join(out, "column_collapse.json"), "w") as f:
-        json.dump(summary, f, indent=2)
+    write_json(os.path.join(out, "column_collapse.json"), summary)
     return summary
 
 
 def plot(out: str, figure: str) -> None:
     """The figure, from the files in `out` only."""
-    try:
-        import matplotlib
-    except ImportError:
-        raise SystemExit("the figure needs matplotlib: pip install matplotlib "
-                         "(or tsubu's bench extra), or pass --no-figure") from None
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    plt = pyplot()
     from matplotlib.collections import EllipseCollection
 
     with open(os.path.join(out, "column_collapse.json")) as f:
@@ -253,13 +242,11 @@ def plot(out: str, figure: str) -> None:
                    xlim=(0, grid_a[-1]), ylim=(0, None))
     ax_scaling.legend(fontsize=8)
     fig.tight_layout()
-    os.makedirs(os.path.dirname(os.path.abspath(figure)), exist_ok=True)
-    fig.savefig(figure, dpi=110)
-    plt.close(fig)
+    save_figure(fig, figure)
 
 
 def main(argv=None) -> list:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    parser = arguments(__doc__.split("\n")[0], "column_collapse")
     parser.add_argument("--quick", action="store_true",
                         help="a small column (L0 = 6 d, W = 3 d), a = 1 only: a test of a few seconds")
     parser.add_argument("--aspect-ratios", type=float, nargs="+", default=None,
@@ -268,10 +255,6 @@ def main(argv=None) -> list:
                         help="column length L0 in grain diameters (default 8)")
     parser.add_argument("--threads", type=int, default=None, help="OpenMP threads (default: all)")
     parser.add_argument("--seed", type=int, default=1, help="seed of the packing")
-    parser.add_argument("--out", default="output/column_collapse", help="output folder")
-    parser.add_argument("--figure", default=None,
-                        help="PNG to write (default: OUT/column_collapse.png)")
-    parser.add_argument("--no-figure", action="store_true", help="write the data only")
     args = parser.parse_args(argv)
     started = time.perf_counter()
     aspect_ratios = args.aspect_ratios or ([1.0] if args.quick else [0.5, 1.0, 2.0])
@@ -280,8 +263,9 @@ def main(argv=None) -> list:
     pack = settled_pack(length, max(aspect_ratios) * length, width, args.seed, args.threads)
     results = [collapse(pack, length, a, width, args.threads) for a in aspect_ratios]
     summary = write_outputs(results, args.out)
-    if not args.no_figure:
-        plot(args.out, args.figure or os.path.join(args.out, "column_collapse.png"))
+    figure = figure_path(args, "column_collapse")
+    if figure:
+        plot(args.out, figure)
     for s in summary:
         print(f"a = {s['aspect_ratio']:4.2f} ({s['grains']} grains): run-out (L_inf - L0)/L0 = "
               f"{s['normalised_run_out']:5.2f} (Lube et al. 2005: 1.2 a = {1.2 * s['aspect_ratio']:4.2f}, "

@@ -22,8 +22,6 @@ the figure (matplotlib, headless). docs/examples.md shows the figure and the tim
 
 from __future__ import annotations
 
-import argparse
-import json
 import math
 import os
 import sys
@@ -32,6 +30,8 @@ import time
 import numpy as np
 
 import tsubu
+
+from example_support import arguments, figure_path, pyplot, save_figure, write_json  # beside this script
 
 # Steel, as in Chung & Ooi (2011), test 5: E = 208 GPa, nu = 0.3, 7850 kg/m^3.
 YOUNGS_MODULUS = 2.08e11  # Pa
@@ -169,19 +169,12 @@ def write_outputs(records: list, summary: dict, out: str) -> None:
         np.savetxt(os.path.join(out, f"oblique_collision_{rule}.csv"), np.array(rows),
                    delimiter=",", comments="",
                    header="angle_deg,time_s,overlap_m,normal_force_N,tangential_force_N")
-    with open(os.path.join(out, "oblique_collision.json"), "w") as f:
-        json.dump(summary, f, indent=2)
+    write_json(os.path.join(out, "oblique_collision.json"), summary)
 
 
 def plot(out: str, figure: str) -> None:
     """The figure, from the files in `out` only (so it can be redrawn without rerunning)."""
-    try:
-        import matplotlib
-    except ImportError:
-        raise SystemExit("the figure needs matplotlib: pip install matplotlib "
-                         "(or tsubu's bench extra), or pass --no-figure") from None
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    plt = pyplot()
 
     fig, axes = plt.subplots(1, 3, figsize=(15, 4.4))
     colours = plt.rcParams["axes.prop_cycle"].by_key()["color"]
@@ -215,27 +208,22 @@ def plot(out: str, figure: str) -> None:
     fig.suptitle(f"Oblique impact of two steel spheres (Hertz-Mindlin), r = {RADIUS * 1e3:g} mm, "
                  f"|v| = {SPEED:g} m/s, e = 1, μ = {FRICTION:g}", fontsize=11)
     fig.tight_layout()
-    os.makedirs(os.path.dirname(os.path.abspath(figure)), exist_ok=True)
-    fig.savefig(figure, dpi=110)
-    plt.close(fig)
+    save_figure(fig, figure)
 
 
 def main(argv=None) -> dict:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    parser = arguments(__doc__.split("\n")[0], "oblique_collision")
     parser.add_argument("--quick", action="store_true",
                         help="coarser steps (t_c/50 instead of t_c/200): a test, in well under a second")
-    parser.add_argument("--out", default="output/oblique_collision", help="output folder")
-    parser.add_argument("--figure", default=None,
-                        help="PNG to write (default: OUT/oblique_collision.png)")
-    parser.add_argument("--no-figure", action="store_true", help="write the data only")
     args = parser.parse_args(argv)
     started = time.perf_counter()
     steps = 50 if args.quick else 200
     records = [collide(angle, steps, rule) for rule in SLIP_RULES for angle in ANGLES]
     summary = summarise(records)
     write_outputs(records, summary, args.out)
-    if not args.no_figure:
-        plot(args.out, args.figure or os.path.join(args.out, "oblique_collision.png"))
+    figure = figure_path(args, "oblique_collision")
+    if figure:
+        plot(args.out, figure)
     for key, s in summary.items():
         print(f"{key:>12} deg: peak F_n {s['peak_normal_force']:6.1f} N (Hertz "
               f"{s['hertz_peak_normal_force']:6.1f} N, {100 * s['peak_force_error']:+.2f} %), "

@@ -24,7 +24,6 @@ headless).
 
 from __future__ import annotations
 
-import argparse
 import json
 import math
 import os
@@ -35,6 +34,8 @@ import numpy as np
 
 import tsubu
 from tsubu import fill
+
+from example_support import arguments, figure_path, pyplot, read_npz, save_figure, write_json  # beside this script
 
 GRAVITY = 9.81  # m/s^2
 SIZES = fill.LogNormal(median_radius=1.0e-3, sigma=0.2, min_radius=0.7e-3, max_radius=1.4e-3)
@@ -53,11 +54,6 @@ SOURCE_HALF_WIDTH = 3e-3  # m, along x
 SOURCE_SPEED = 0.3  # m/s, downwards
 REST_SPEED = 0.005  # m/s
 
-
-def read_npz(path) -> dict:
-    """The arrays of an .npz file, the file closed again."""
-    with np.load(path) as z:
-        return {k: z[k] for k in z.files}
 
 def mean_diameter() -> float:
     return 2.0 * float(np.mean(SIZES.sample(100_000, np.random.default_rng(0))))
@@ -194,20 +190,13 @@ def write_outputs(result: dict, out: str) -> dict:
               "packing_fraction")
     np.savez(os.path.join(out, "pouring_heap.npz"), **{k: result[k] for k in arrays})
     summary = {k: v for k, v in result.items() if k not in arrays}
-    with open(os.path.join(out, "pouring_heap.json"), "w") as f:
-        json.dump(summary, f, indent=2)
+    write_json(os.path.join(out, "pouring_heap.json"), summary)
     return summary
 
 
 def plot(out: str, figure: str) -> None:
     """The figure, from the files in `out` only."""
-    try:
-        import matplotlib
-    except ImportError:
-        raise SystemExit("the figure needs matplotlib: pip install matplotlib "
-                         "(or tsubu's bench extra), or pass --no-figure") from None
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    plt = pyplot()
     from matplotlib.collections import EllipseCollection
 
     with open(os.path.join(out, "pouring_heap.json")) as f:
@@ -240,27 +229,23 @@ def plot(out: str, figure: str) -> None:
                title="Packing fraction (heap interior)", xlim=(0.3, 0.7))
     ax_phi.legend(fontsize=8)
     fig.tight_layout()
-    os.makedirs(os.path.dirname(os.path.abspath(figure)), exist_ok=True)
-    fig.savefig(figure, dpi=110)
-    plt.close(fig)
+    save_figure(fig, figure)
 
 
 def main(argv=None) -> dict:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    parser = arguments(__doc__.split("\n")[0], "pouring_heap")
     parser.add_argument("--quick", action="store_true", help="300 beads: a test of a few seconds")
     parser.add_argument("--count", type=int, default=None, help="beads to pour (default 600)")
     parser.add_argument("--threads", type=int, default=None, help="OpenMP threads (default: all)")
     parser.add_argument("--seed", type=int, default=1, help="seed of the inserter")
-    parser.add_argument("--out", default="output/pouring_heap", help="output folder")
-    parser.add_argument("--figure", default=None, help="PNG to write (default: OUT/pouring_heap.png)")
-    parser.add_argument("--no-figure", action="store_true", help="write the data only")
     args = parser.parse_args(argv)
     started = time.perf_counter()
     count = args.count or (300 if args.quick else 600)
     sim, inserter, poured = pour(count, args.seed, args.threads)
     summary = write_outputs(analyse(sim, inserter, poured, time.perf_counter() - started), args.out)
-    if not args.no_figure:
-        plot(args.out, args.figure or os.path.join(args.out, "pouring_heap.png"))
+    figure = figure_path(args, "pouring_heap")
+    if figure:
+        plot(args.out, figure)
     print(f"{summary['grains']} beads poured in {summary['pour_time']:.2f} s, settled "
           f"{summary['settle_time']:.2f} s later{'' if summary['at_rest'] else ' (NOT at rest)'}: "
           f"heap {summary['heap_height'] * 1e3:.1f} mm high, angle of repose "
