@@ -9,6 +9,7 @@
 #include <type_traits>
 
 #include "tsubu/registry.hpp"
+#include "check.hpp"
 
 #ifdef TSUBU_HAVE_OPENMP
 #include <omp.h>
@@ -16,32 +17,9 @@
 
 namespace tsubu {
 
-namespace {
-
-std::string fmt(double x) {
-  std::ostringstream o;
-  o.precision(6);
-  o << x;
-  return o.str();
-}
-
-// `what` is the message, or a function that builds it: checks made once per sphere pass a
-// function, so that the message is only built when the check fails (building it every time took
-// seconds for a million spheres).
-template <class Message>
-void require(bool ok, Message&& what) {
-  if (ok) return;
-  if constexpr (std::is_invocable_v<Message>)
-    throw InvalidArgument(what());
-  else
-    throw InvalidArgument(what);
-}
-
-bool finite3(const double* p) {
-  return std::isfinite(p[0]) && std::isfinite(p[1]) && std::isfinite(p[2]);
-}
-
-}  // namespace
+using detail::finite3;
+using detail::fmt;
+using detail::require;
 
 Simulation::Simulation(const Options& options) : opt_(options) {}
 
@@ -61,26 +39,7 @@ int Simulation::threads() const {
 // ---- materials ------------------------------------------------------------------------------
 
 int Simulation::add_material(const Material& m) {
-  require(m.density > 0 && std::isfinite(m.density), "density must be > 0, got " + fmt(m.density));
-  require(m.youngs_modulus >= 0 && std::isfinite(m.youngs_modulus),
-          "youngs_modulus must be > 0 (or 0 for a linear material), got " + fmt(m.youngs_modulus));
-  if (m.youngs_modulus > 0) {
-    require(m.poisson_ratio > -1 && m.poisson_ratio <= 0.5,
-            "poisson_ratio must be in (-1, 0.5], got " + fmt(m.poisson_ratio));
-  } else {
-    require(m.kn > 0 && std::isfinite(m.kn), "kn must be > 0, got " + fmt(m.kn));
-    require(m.kt >= 0 && std::isfinite(m.kt), "kt must be >= 0, got " + fmt(m.kt));
-  }
-  require(m.restitution > 0 && m.restitution <= 1,
-          "restitution must be in (0, 1], got " + fmt(m.restitution));
-  require(m.friction >= 0 && std::isfinite(m.friction),
-          "friction must be >= 0, got " + fmt(m.friction));
-  require(m.rolling_friction >= 0 && std::isfinite(m.rolling_friction),
-          "rolling_friction must be >= 0, got " + fmt(m.rolling_friction));
-  require(m.tangential_damping >= 0 && std::isfinite(m.tangential_damping),
-          "tangential_damping must be >= 0, got " + fmt(m.tangential_damping));
-  require(m.roughness >= 0 && m.roughness < 0.5 * M_PI,
-          "roughness must be in [0, pi/2) radians, got " + fmt(m.roughness));
+  validate_material(m);
   materials_.push_back(m);
   return static_cast<int>(materials_.size()) - 1;
 }
@@ -95,23 +54,10 @@ void Simulation::set_pair_parameters(int a, int b, const PairParams& p) {
   energy_ref_valid_ = false;
   material(a);
   material(b);
-  if (HertzParams::used(p))
-    require(std::isfinite(p.effective_modulus) && p.effective_shear_modulus >= 0 &&
-                std::isfinite(p.effective_shear_modulus),
-            "pair moduli must be effective_modulus > 0, effective_shear_modulus >= 0");
-  else
-    require(p.kn > 0 && p.kt >= 0, "pair stiffnesses must be kn > 0, kt >= 0");
+  validate_pair(p);
   require(HertzParams::used(p) == HertzParams::used(pair_parameters(a, b)),
           "a pair's override keeps its materials' law: effective_modulus > 0 exactly when both "
           "materials are Hertzian");
-  require(p.restitution > 0 && p.restitution <= 1, "pair restitution must be in (0, 1]");
-  require(p.friction >= 0 && p.rolling_friction >= 0 && p.tangential_damping >= 0,
-          "pair friction coefficients must be >= 0");
-  require(p.roughness >= 0 && p.roughness < 0.5 * M_PI, "pair roughness must be in [0, pi/2)");
-  require(p.roughness_distribution != ScatterDistribution::Uniform ||
-              std::sqrt(3.0) * p.roughness < 0.5 * M_PI,
-          "pair roughness with a uniform distribution must be < 90/sqrt(3) degrees, got " +
-              fmt(p.roughness * 180 / M_PI) + " degrees");
   PairParams q = p;
   q.finalise();
   for (std::size_t k = 0; k < overrides_key_.size(); ++k) {
@@ -393,10 +339,7 @@ std::string Simulation::law_name() const {
 }
 
 void Simulation::prepare_run() {
-  require(opt_.gravity.allFinite(), "gravity is not finite");
-  require(opt_.max_overlap > 0, "max_overlap must be > 0");
-  require(!(opt_.slip == SlipRule::Truncate && opt_.history == HistoryRule::Literal),
-          "the truncate slip rule needs the rotate tangential history");
+  validate_options(opt_);
   mix_pairs();
   // The default speed is taken once, at the first run after spheres were added: a scene's
   // default dt must not change between runs, or splitting a run would change its result.
