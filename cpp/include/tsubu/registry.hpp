@@ -3,7 +3,7 @@
 // Each slot of the contact law has a list of evaluators (below). registry.cpp instantiates the
 // loop for every combination, from these lists, and a LawKey (one index per slot) finds it.
 // Adding a law: write its evaluator in contact/, append it to its slot's list, and teach
-// Simulation::law_key() when a scene wants it. Wall motion is not a slot: a run checks it per
+// the law selection (contact/selection.hpp) when a scene wants it. Wall motion is not a slot: a run checks it per
 // wall contact (the branch costs nothing measurable, docs/architecture.md), which halves the
 // number of instantiations.
 #pragma once
@@ -21,7 +21,9 @@
 
 namespace tsubu {
 
-class Simulation;
+namespace detail {
+struct World;
+}
 
 template <class... T>
 struct TypeList {
@@ -67,7 +69,7 @@ struct LawKey {
   std::size_t normal = 0, damping = 0, tangential = 0, rolling = 0, roughness = 0;
 };
 
-using StepFunction = void (*)(Simulation&, long steps);
+using StepFunction = void (*)(detail::World&, long steps);
 
 // One instantiated law, and what the rest of the engine asks of it without knowing its type.
 struct CompiledLaw {

@@ -1,12 +1,60 @@
-// The engine's views of a Simulation: the arrays a pass reads and writes, unpacked once per pass,
-// so that the passes themselves never reach into the Simulation.
+// The engine's views of the World (world.hpp): the arrays a pass reads and writes, unpacked once
+// per pass, so that the passes themselves never reach into the scene's types.
 #pragma once
 #include <algorithm>
 
-#include "../simulation.hpp"
 #include "common.hpp"
+#include "world.hpp"
 
 namespace tsubu::detail {
+
+// The contact force and torque on one particle, summed from the per-entry results in an order
+// fixed by ids: its walls, the entries it owns (partners by id), the entries it is the partner
+// of (owners by id). The step loop and the accessors share it, so get_forces() returns the
+// forces the last step used, bit for bit.
+struct ContactSums {
+  const Index *woff, *wnear, *noff, *roff, *rev;
+  const double *r, *wf, *wn, *wr, *wo, *pf, *pn, *pr, *po;
+
+  ContactSums(const NeighborList& l, const ContactStore& c, const Particles& p)
+      : woff(l.wall_near_offset.data()), wnear(l.wall_near.data()), noff(l.near_offset.data()),
+        roff(l.near_rev_offset.data()), rev(l.near_rev.data()), r(p.arrays().radius.data()),
+        wf(c.walls.force.data()), wn(c.walls.nxft.data()), wr(c.walls.roll.data()),
+        wo(c.walls.overlap.data()), pf(c.pairs.force.data()), pn(c.pairs.nxft.data()),
+        pr(c.pairs.roll.data()), po(c.pairs.overlap.data()) {}
+
+  // Requests particle k's offsets and velocities ahead of at(k).
+  void prefetch(Index k, const double* v, const double* w) const {
+    __builtin_prefetch(woff + k);
+    __builtin_prefetch(noff + k);
+    __builtin_prefetch(roff + k);
+    __builtin_prefetch(v + 3 * k, 1);
+    __builtin_prefetch(w + 3 * k, 1);
+  }
+
+  // kWallLever: walls store n x F_t; kPairLever: pairs store n x F; kRolling: rolling vectors.
+  template <bool kWallLever, bool kPairLever, bool kRolling>
+  void at(Index k, Vec3& F, Vec3& T) const {
+    const double rk = r[k];
+    for (Index p = woff[k]; p < woff[k + 1]; ++p) {
+      const Index e = wnear[p];
+      F += vec3(wf, e);
+      if constexpr (kWallLever) T -= contact_lever(rk, wo[e]) * vec3(wn, e);  // (1.19)
+      if constexpr (kRolling) T += rk * vec3(wr, e);                     // (1.20)
+    }
+    for (Index q = noff[k]; q < noff[k + 1]; ++q) {
+      F += vec3(pf, q);
+      if constexpr (kPairLever) T -= contact_lever(rk, po[q]) * vec3(pn, q);
+      if constexpr (kRolling) T += rk * vec3(pr, q);
+    }
+    for (Index p = roff[k]; p < roff[k + 1]; ++p) {
+      const Index q = rev[p];
+      F -= vec3(pf, q);
+      if constexpr (kPairLever) T -= contact_lever(rk, po[q]) * vec3(pn, q);
+      if constexpr (kRolling) T -= rk * vec3(pr, q);
+    }
+  }
+};
 
 // Everything the contact pass reads and writes.
 struct ContactView {
@@ -27,7 +75,7 @@ struct ContactView {
   bool moving;  // a wall moves: wall contacts take its velocity
   const PairTable* table;
   const PairParams* same;  // the parameters of every pair when all spheres share a material
-  Box box;
+  Domain box;
   std::uint64_t step, seed;
   double dt;
   Index pairs, walls;  // near-pair and near-wall entries
@@ -35,31 +83,30 @@ struct ContactView {
   bool far;  // a large scene: partners' positions are prefetched
 
   // `ahead`: 1 where the pass evaluates the next step's contacts (the fused pass).
-  ContactView(Simulation& s, double dt_, long ahead = 0)
-      : x(s.particles_.x.data()), v(s.particles_.v.data()), w(s.particles_.w.data()),
-        r(s.particles_.radius.data()), m(s.particles_.mass.data()),
-        inv_i(s.particles_.inv_inertia.data()), mat(s.particles_.material.data()),
-        ids(s.particles_.id.data()), own(s.near_owner_.data()), par(s.near_partner_.data()),
-        wown(s.wall_owner_.data()), wall(s.wall_index_.data()), wnear(s.wall_near_.data()),
-        owned(s.near_offset_.data()), cut2(s.near_cut2_.data()), entry(s.near_entry_.data()),
-        limit(s.opt_.max_overlap), speed(s.speed_), xi(s.pair_state_.xi.data()), force(s.pair_state_.force.data()),
-        nxft(s.pair_state_.nxft.data()), roll(s.pair_state_.roll.data()),
-        overlap(s.pair_state_.overlap.data()), rough(s.pair_state_.rough.data()),
-        wxi(s.wall_state_.xi.data()), wforce(s.wall_state_.force.data()),
-        wnxft(s.wall_state_.nxft.data()), wroll(s.wall_state_.roll.data()),
-        woverlap(s.wall_state_.overlap.data()), wrough(s.wall_state_.rough.data()),
-        touch(s.pair_state_.touch.data()), wtouch(s.wall_state_.touch.data()),
-        diss(s.particles_.dissipated.data()), loaded(s.loaded_.data()), wact(s.active_.data()),
-        planes(s.planes_.data()), moving(s.walls_move()), table(&s.pairs_),
-        same(s.sphere_material_ >= 0 ? &s.pairs_(s.sphere_material_, s.sphere_material_)
-                                     : nullptr),
-        box(s.box_), step(std::uint64_t(s.step_ + ahead)), seed(s.opt_.seed), dt(dt_),
-        pairs(Index(s.near_partner_.size())), walls(Index(s.wall_near_.size())),
-        threads(static_cast<int>(s.n_) >= s.opt_.parallel_min ? s.threads() : 1),
-        far(s.n_ >= kFar) {}
+  ContactView(World& s, double dt_, long ahead = 0)
+      : ContactView(s.particles.arrays(), s.lists, s.contacts, s, dt_, ahead) {}
 
   // Scenes of this many spheres or more do not stay in cache from one pass to the next.
   static constexpr std::size_t kFar = std::size_t(1) << 16;
+
+ private:
+  ContactView(ParticleStore& p, NeighborList& l, ContactStore& c, World& s, double dt_, long ahead)
+      : x(p.x.data()), v(p.v.data()), w(p.w.data()), r(p.radius.data()), m(p.mass.data()),
+        inv_i(p.inv_inertia.data()), mat(p.material.data()), ids(p.id.data()),
+        own(l.near_owner.data()), par(l.near_partner.data()), wown(l.wall_owner.data()),
+        wall(l.wall_index.data()), wnear(l.wall_near.data()), owned(l.near_offset.data()),
+        cut2(l.near_cut2.data()), entry(l.near_entry.data()), limit(s.options.max_overlap),
+        speed(s.run.speed), xi(c.pairs.xi.data()), force(c.pairs.force.data()),
+        nxft(c.pairs.nxft.data()), roll(c.pairs.roll.data()), overlap(c.pairs.overlap.data()),
+        rough(c.pairs.rough.data()), wxi(c.walls.xi.data()), wforce(c.walls.force.data()),
+        wnxft(c.walls.nxft.data()), wroll(c.walls.roll.data()), woverlap(c.walls.overlap.data()),
+        wrough(c.walls.rough.data()), touch(c.pairs.touch.data()), wtouch(c.walls.touch.data()),
+        diss(p.dissipated.data()), loaded(l.loaded.data()), wact(l.active.data()),
+        planes(s.walls.planes()), moving(s.walls.moving()), table(&s.pairs),
+        same(s.sphere_material >= 0 ? &s.pairs(s.sphere_material, s.sphere_material) : nullptr),
+        box(s.domain), step(std::uint64_t(s.run.step + ahead)), seed(s.options.seed), dt(dt_),
+        pairs(Index(l.near_partner.size())), walls(Index(l.wall_near.size())), threads(s.threads),
+        far(s.particles.size() >= kFar) {}
 };
 
 // Everything the particle pass reads and writes.
@@ -76,18 +123,20 @@ struct ParticleView {
   int threads;
   double dt, gx, gy, gz;
 
-  ParticleView(Simulation& s, double dt_)
-      : x(s.particles_.x.data()), v(s.particles_.v.data()), w(s.particles_.w.data()),
-        inv_m(s.particles_.inv_mass.data()), inv_i(s.particles_.inv_inertia.data()),
-        radius(s.particles_.radius.data()), busy(s.busy_.data()), n(Index(s.n_)),
-        nb(Index(s.busy_.size())), loaded(s.loaded_.data()), sums(s),
-        sum_entry(s.sum_entry_.data()), sum_offset(s.sum_offset_.data()),
-        flat(s.sum_offset_.size() == std::size_t(nb) + 1),
-        threads(Index(s.n_) >= s.opt_.parallel_min ? s.threads() : 1), dt(dt_),
-        gx(dt_ * s.opt_.gravity.x()), gy(dt_ * s.opt_.gravity.y()), gz(dt_ * s.opt_.gravity.z()) {}
+  ParticleView(World& s, double dt_) : ParticleView(s.particles.arrays(), s.lists, s, dt_) {}
 
   // The first busy particle at or after particle k.
   Index first_busy(Index k) const { return Index(std::lower_bound(busy, busy + nb, k) - busy); }
+
+ private:
+  ParticleView(ParticleStore& p, NeighborList& l, World& s, double dt_)
+      : x(p.x.data()), v(p.v.data()), w(p.w.data()), inv_m(p.inv_mass.data()),
+        inv_i(p.inv_inertia.data()), radius(p.radius.data()), busy(l.busy.data()),
+        n(Index(s.particles.size())), nb(Index(l.busy.size())), loaded(l.loaded.data()),
+        sums(l, s.contacts, s.particles), sum_entry(l.sum_entry.data()),
+        sum_offset(l.sum_offset.data()), flat(l.sum_offset.size() == std::size_t(nb) + 1),
+        threads(s.threads), dt(dt_), gx(dt_ * s.options.gravity.x()),
+        gy(dt_ * s.options.gravity.y()), gz(dt_ * s.options.gravity.z()) {}
 };
 
 }  // namespace tsubu::detail

@@ -1,0 +1,91 @@
+// What one run of the loop works on: the parts of the scene (particles, walls, neighbour lists,
+// contact state, domain, pair table, options), the run's counters, and the hooks through which
+// the loop asks its orchestrator (the Simulation) for what is not the loop's business: whether
+// to stop, when to rebuild the lists, the energy audit, and the error reports. The engine sees
+// only this; it never includes simulation.hpp.
+#pragma once
+#include <array>
+#include <chrono>
+
+#include "../contact_store.hpp"
+#include "../domain.hpp"
+#include "../material.hpp"
+#include "../neighbor_list.hpp"
+#include "../options.hpp"
+#include "../particles.hpp"
+#include "../walls/walls.hpp"
+
+namespace tsubu {
+
+// Wall-clock time spent in each phase of the loop, summed over runs (for benchmarks).
+enum class Phase { Neighbors = 0, Contacts, Integrate, Count };
+const char* phase_name(Phase p);
+
+// Adds the time since the previous lap to the named phase (steady clock, ~20 ns a lap).
+class PhaseTimer {
+ public:
+  explicit PhaseTimer(std::array<double, int(Phase::Count)>& sums)
+      : sums_(sums), last_(std::chrono::steady_clock::now()) {}
+  void lap(Phase p) {
+    const auto now = std::chrono::steady_clock::now();
+    sums_[int(p)] += std::chrono::duration<double>(now - last_).count();
+    last_ = now;
+  }
+  std::chrono::steady_clock::time_point last() const { return last_; }
+
+ private:
+  std::array<double, int(Phase::Count)>& sums_;
+  std::chrono::steady_clock::time_point last_;
+};
+
+// The counters of the run: where it stands, its step, and what it measured.
+struct RunCounters {
+  long step = 0;
+  double time = 0;  // s
+  double dt = 0;    // s: the step of the run in progress (or the last)
+  double speed = 1;  // the characteristic impact speed when the run started, m/s
+  long fused_steps = 0;  // steps whose particle pass also evaluated the next step's contacts
+  std::array<double, int(Phase::Count)> phase_seconds{};
+};
+
+namespace detail {
+
+// The energy balance is audited every kEnergyCheck-th step (counted over all runs) of a scene
+// with fixed walls.
+constexpr long kEnergyCheck = 1000;
+
+// What the loop asks of its orchestrator between passes.
+class RunHooks {
+ public:
+  // Whether the run must end before its next step (a stop was requested, or the poll asked).
+  virtual bool stop_due(std::chrono::steady_clock::time_point now) = 0;
+  // Rebuilds or refreshes the neighbour lists if one is due.
+  virtual void update_lists() = 0;
+  // The energy audit: a run starts (with fixed or moving walls), a check is due.
+  virtual void start_audit(bool walls_move) = 0;
+  virtual void audit() = 0;
+  // Raise InstabilityError naming the step and the particle.
+  [[noreturn]] virtual void report_overlap(double dt) const = 0;
+  [[noreturn]] virtual void report_nonfinite() const = 0;
+  [[noreturn]] virtual void report_nonfinite_velocity() const = 0;
+
+ protected:
+  ~RunHooks() = default;
+};
+
+struct World {
+  Particles& particles;
+  Walls& walls;
+  NeighborList& lists;
+  ContactStore& contacts;
+  Domain& domain;
+  const PairTable& pairs;
+  const Options& options;
+  RunCounters& run;
+  RunHooks& hooks;
+  int sphere_material;  // the one material of all spheres, else -1
+  int threads;          // threads of the parallel passes (1 below options.parallel_min spheres)
+};
+
+}  // namespace detail
+}  // namespace tsubu

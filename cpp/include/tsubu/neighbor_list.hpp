@@ -1,0 +1,192 @@
+// The two-level neighbour list (docs/architecture.md), built with linked cells and a skin.
+//
+// The Verlet list holds every pair within r_i + r_j + skin, each once, owned by the lower id, an
+// owner's partners sorted by id. The near list, refreshed from it when particles may have moved
+// by a tenth of the skin, holds the pairs within r_i + r_j + skin/10, each entry with its contact
+// state (ContactStore); the step loop touches only it. Its entries keep the owner order and the
+// partner-id order of the Verlet list, and a reverse index sorted by owner id lets every
+// particle sum its contacts in an order fixed by ids: bit-identical results for any thread
+// count and any rebuild schedule. The near-wall list holds the (sphere, wall, element) entries
+// within r + skin of a wall, by sphere. A rebuild re-sorts the particles by cell.
+#pragma once
+#include <algorithm>
+#include <array>
+#include <cstdint>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "contact_store.hpp"
+#include "domain.hpp"
+#include "material.hpp"
+#include "memory.hpp"
+#include "particles.hpp"
+#include "registry.hpp"
+#include "types.hpp"
+#include "walls/walls.hpp"
+
+namespace tsubu {
+
+class NeighborList {
+ public:
+  // What a rebuild or refresh reads and writes besides the lists.
+  struct Context {
+    Particles& particles;
+    Walls& walls;  // (a rebuild marks their positions for its criterion)
+    const Domain& domain;
+    ContactStore& contacts;
+    const CompiledLaw& law;  // the entries' terms; the energy of a spring that opens
+    bool law_chosen;         // false: no run has chosen the law yet (the contact shapes are unset)
+    const PairTable& pairs;
+    int threads;    // threads for the parallel loops
+    bool parallel;  // whether to use them (a scene of options.parallel_min spheres or more)
+  };
+
+  // ---- the lists (read by the engine's views) ---------------------------------------------
+  Array<Index> pair_offset, pair_partner;  // Verlet list: rows by owner (internal index)
+  Array<Index> near_offset, near_owner, near_partner, near_rev_offset, near_rev;
+  Array<double> near_cut2;  // (r_i + r_j)^2
+  // The law's terms of each near pair (ContactLaw::entry_terms, CompiledLaw::entry_width per
+  // entry: for the linear law the dashpot itself; for Hertz sqrt(R*) and the dashpot's mass
+  // term), fixed while the pair is in the list: square roots saved per contact and step.
+  Array<double> near_entry;
+  // Near-wall list: (sphere, wall, element) entries within r + skin, by sphere; they hold the
+  // wall contact state. The step loop reads the subset within r + skin/10 (all of them if a wall
+  // moves), refreshed with the near list: wall_near (entry indices, by sphere).
+  Array<Index> wall_offset, wall_index, wall_element, wall_owner, wall_near_offset, wall_near;
+  // Particles with near-pair or near-wall entries: the only ones whose contacts can be summed;
+  // and, per step, 1 for those with an entry in contact (set by the contact pass, cleared by
+  // the particle pass).
+  Array<Index> busy;
+  Array<std::uint8_t> loaded;
+  // Every busy particle's entries in the order its sums take them (ContactSums::at), flat, so
+  // the particle pass of a dense scene sums them in one loop without a branch per particle:
+  // (entry << 3) | (first of its particle << 2) | kind (0 owned pair, 1 reverse pair, 2 wall);
+  // sum_offset[b] is busy particle b's first. Empty if an entry index does not fit.
+  Array<std::uint32_t> sum_entry;
+  Array<Index> sum_offset;
+  // For the fused pass (engine/fused_pass.hpp): how far down and up the particle array a near
+  // pair's partner lies from its owner (index distances, at most), and the most entries one
+  // particle sums.
+  Index reach_below = 0, reach_above = 0, max_entries = 0;
+  Array<Index> active;  // scratch of the contact pass: the near-wall entries in contact
+
+  // ---- bookkeeping ------------------------------------------------------------------------
+  // Bounds on the distance any particle moved since the last rebuild and since the last
+  // refresh (sums of dt max|v| over the steps).
+  double moved = 0, moved_near = 0;
+  double skin = 0;  // the skin of the last rebuild
+  bool valid = false;  // false: the next run rebuilds first
+  long rebuilds = 0, refreshes = 0;
+
+  // Whether the lists exist for n particles (a run built them).
+  bool built(std::size_t n) const { return near_offset.size() == n + 1; }
+  double near_skin() const { return 0.1 * skin; }
+  // Whether a rebuild is due: two particles may have closed by the skin, or a wall moved too
+  // far; or the lists are invalid, or `every_step` (a testing aid).
+  bool needs_rebuild(const Walls& walls, bool every_step) const {
+    if (!valid || every_step) return true;
+    if (2.0 * moved > skin) return true;
+    return walls.moved_beyond(moved, skin);
+  }
+  bool needs_refresh() const { return 2.0 * moved_near > near_skin(); }
+  // Whether the particles may move `step` further without any list falling due.
+  bool can_move(double step, bool every_step) const {
+    return valid && !every_step && 2.0 * (moved + step) <= skin && 2.0 * (moved_near + step) <= near_skin();
+  }
+  void book_moved(double distance) {
+    moved += distance;
+    moved_near += distance;
+  }
+
+  // Rebuilds every list with the given skin, re-sorting the particles by cell; with
+  // `keep_history`, carries the contact state over by ids (a touching contact whose spheres
+  // jumped apart by more than the skin in one step has opened: its spring energy is booked as
+  // lost, as the step would have).
+  void rebuild(const Context& c, double skin, bool keep_history);
+  // Refreshes the near lists from the Verlet list, carrying the contact state over.
+  void refresh(const Context& c);
+  // near_entry from the current pair table (after a refresh, or when parameters change).
+  void cache_terms(const Context& c);
+  // Puts contact state saved by ids (checkpoints) into fresh lists: builds them without
+  // carrying anything, and returns; the caller fills the entries, then calls finish_restore().
+  void rebuild_empty(const Context& c, double skin);
+  void finish_restore(const Context& c);
+
+  // The Verlet list's pairs as ids, lower first, sorted.
+  std::vector<std::array<Id, 2>> pairs_by_id(const Particles& particles) const;
+  // Bytes held, by group: verlet list, near list, walls, scratch (ContactStore's arrays not
+  // included).
+  std::size_t verlet_bytes() const;
+  std::size_t near_bytes() const;
+  std::size_t wall_bytes() const;
+  std::size_t scratch_bytes() const;
+
+ private:
+  // The cell grid of a rebuild (cell_grid.cpp): dense (every cell of the particles' bounding
+  // box, cell c = (z dims_y + y) dims_x + x) when that is at most 2 N + 1000 cells, else sparse:
+  // only the occupied cells, by their sorted (z, y, x) keys in cell_key_, so that spheres
+  // kilometres apart cost memory in proportion to N, not to the volume they span.
+  struct CellGrid {
+    Vec3 lo = Vec3::Zero(), hi = Vec3::Zero();  // the particles' bounding box
+    double h = 1;                                // cell side
+    std::array<long, 3> dims{1, 1, 1};
+    bool sparse = false;
+  };
+  using CellKey = std::array<std::int64_t, 3>;
+
+  CellGrid plan_grid(const Context& c, double skin) const;
+  static CellKey cell_of(const CellGrid& g, const double* x);
+  // Bins the particles (cell_of_, cell_start_, perm_) without moving them.
+  void bin_by_cell(const Context& c, const CellGrid& g);
+  // Throws ResourceError, before the rebuild changes anything, when the Verlet list the grid
+  // would give cannot fit in memory (or in its 32-bit indices).
+  void check_fits(const Context& c, const CellGrid& g, double skin) const;
+  static double bytes_per_pair(const Context& c);
+  template <class Visit>
+  void for_each_cell_around(const CellGrid& g, const CellKey& key, Visit&& visit) const;
+
+  void build_verlet(const Context& c, const CellGrid& grid, double skin);
+  void build_walls(const Context& c, double skin, bool transfer, std::size_t old_n);
+  // Builds the near list from the Verlet list; with `transfer`, carries the stashed state over
+  // by (owner id, partner id); `reordered`: the particles were re-sorted since the stash.
+  void refresh_near(const Context& c, bool transfer, bool reordered);
+  // sum_entry and sum_offset from the near list, the reverse index and the near-wall list.
+  void build_sum_entries(const Context& c);
+  // reach_below, reach_above and max_entries from the near lists.
+  void measure();
+  // The energy a contact loses when it opens (its tangential spring; the engine releases).
+  static double spring_energy(const Context& c, int material_a, int material_b,
+                              const Array<double>& xi, std::size_t e);
+
+  // Scratch reused by rebuilds (no allocation once warm).
+  Array<Index> cell_start_, cell_of_, perm_, old_index_of_;
+  Array<CellKey> cell_key_;
+  Array<double> scratch_;
+  Array<Index> scratch_int_;
+};
+
+// Calls visit(cell) for each existing cell among the 27 around `key` (itself included), in the
+// order of increasing (z, y, x).
+template <class Visit>
+inline void NeighborList::for_each_cell_around(const CellGrid& g, const CellKey& key, Visit&& visit) const {
+  const std::array<long, 3> dims{g.dims[2], g.dims[1], g.dims[0]};  // in key order (z, y, x)
+  std::array<std::int64_t, 3> lo_key, hi_key;
+  for (int d = 0; d < 3; ++d) {
+    lo_key[d] = std::max<std::int64_t>(key[d] - 1, 0);
+    hi_key[d] = std::min<std::int64_t>(key[d] + 1, dims[d] - 1);
+  }
+  for (std::int64_t cz = lo_key[0]; cz <= hi_key[0]; ++cz)
+    for (std::int64_t cy = lo_key[1]; cy <= hi_key[1]; ++cy)
+      for (std::int64_t cx = lo_key[2]; cx <= hi_key[2]; ++cx) {
+        if (!g.sparse) {
+          visit(static_cast<long>((cz * dims[1] + cy) * dims[2] + cx));
+          continue;
+        }
+        const CellKey q{cz, cy, cx};
+        const auto it = std::lower_bound(cell_key_.begin(), cell_key_.end(), q);
+        if (it != cell_key_.end() && *it == q) visit(static_cast<long>(it - cell_key_.begin()));
+      }
+}
+
+}  // namespace tsubu

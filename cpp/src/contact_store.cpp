@@ -1,0 +1,71 @@
+#include "tsubu/contact_store.hpp"
+
+#include <algorithm>
+
+namespace tsubu {
+
+void ContactStore::shape_for(const CompiledLaw& law) {
+  const int moment = law.history_width > 0 ? 3 : 0;
+  pair_shape = {law.history_width, law.rough_width > 0 ? 3 : moment, law.rolling ? 3 : 0, law.rough_width};
+  wall_shape = {law.history_width, moment, law.rolling ? 3 : 0, law.rough_width};
+}
+
+void ContactStore::size(std::size_t pair_entries, std::size_t wall_entries) {
+  auto size = [](EntryStore& st, const EntryShape& shape, std::size_t entries) {
+    const auto width = EntryStore::widths(shape);
+    const auto arrays = st.carried();
+    for (std::size_t k = 0; k < kFields; ++k) fit(*arrays[k], width[k] * entries);
+    fit(st.touch, entries);
+  };
+  size(pairs, pair_shape, pair_entries);
+  size(walls, wall_shape, wall_entries);
+}
+
+void ContactStore::stash_pair_state(const Array<Index>& offset, const Array<Index>& partner,
+                                    const Array<Id>& id) {
+  // Only touching entries have state: copy theirs, compactly, with rows by owner.
+  const std::size_t rows = offset.empty() ? 0 : offset.size() - 1;
+  std::size_t count = 0;
+  for (double o : pairs.overlap) count += o > 0;
+  stash_offset.resize(rows + 1);
+  stash_partner.resize(count);
+  const auto state = pairs.carried();
+  const auto width = EntryStore::widths(pair_shape);
+  for (std::size_t k = 0; k < kFields; ++k) stash_pairs[k].resize(state[k]->empty() ? 0 : count * width[k]);
+  std::array<const double*, kFields> now;
+  for (std::size_t k = 0; k < kFields; ++k) now[k] = state[k]->data();
+  std::size_t c = 0;
+  stash_offset[0] = 0;
+  for (std::size_t i = 0; i < rows; ++i) {
+    for (Index q = offset[i]; q < offset[i + 1]; ++q) {
+      if (!(pairs.overlap[q] > 0)) continue;
+      stash_partner[c] = id[partner[q]];
+      for (std::size_t k = 0; k < kFields; ++k) {
+        if (stash_pairs[k].empty()) continue;
+        const std::size_t wd = width[k];
+        const double* from = now[k] + wd * q;
+        std::copy(from, from + wd, stash_pairs[k].data() + wd * c);
+      }
+      ++c;
+    }
+    stash_offset[i + 1] = static_cast<Index>(c);
+  }
+}
+
+namespace {
+template <class... A>
+std::size_t capacity_bytes(const A&... v) {
+  return ((v.capacity() * sizeof(typename A::value_type)) + ... + 0);
+}
+}  // namespace
+
+std::size_t ContactStore::bytes() const { return pairs.bytes() + walls.bytes(); }
+
+std::size_t ContactStore::stash_bytes() const {
+  std::size_t b = capacity_bytes(stash_offset, stash_partner, stash_wall_offset, stash_wall_index,
+                                 stash_wall_element);
+  for (std::size_t k = 0; k < kFields; ++k) b += capacity_bytes(stash_pairs[k], stash_walls[k]);
+  return b;
+}
+
+}  // namespace tsubu

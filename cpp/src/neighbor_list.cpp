@@ -1,0 +1,414 @@
+// Linked cells with a skin (Verlet list): the half pair list, the near-wall list, the sort of
+// particles by cell, and the transfer of contact state across rebuilds (neighbor_list.hpp).
+#include "tsubu/neighbor_list.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <vector>
+
+namespace tsubu {
+
+namespace {
+
+template <class Key>
+void insertion_sort(Index* first, Index* last, Key key) {
+  for (Index* a = first + 1; a < last; ++a) {
+    const Index v = *a;
+    const auto kv = key(v);
+    Index* b = a;
+    for (; b > first && key(*(b - 1)) > kv; --b) *b = *(b - 1);
+    *b = v;
+  }
+}
+
+}  // namespace
+
+void NeighborList::rebuild(const Context& c, double skin_now, bool keep_history) {
+  const std::size_t n = c.particles.size();
+
+  // 1. Cells: the bounding box of the particles, cells no smaller than the largest cutoff. The
+  //    particles are binned and the list's size checked before anything changes, so that a
+  //    list that cannot fit is refused with the state as it was.
+  const CellGrid grid = plan_grid(c, skin_now);
+  if (n > 0) {
+    bin_by_cell(c, grid);
+    check_fits(c, grid, skin_now);
+  }
+  skin = skin_now;
+
+  // 2. Set the old near and wall lists aside, in terms of ids, with their state; then put the
+  //    particles in cell order.
+  const std::size_t old_n = near_offset.size() == 0 ? 0 : near_offset.size() - 1;
+  const bool transfer = keep_history && old_n > 0 && wall_offset.size() == old_n + 1;
+  ContactStore& cs = c.contacts;
+  if (transfer) {
+    cs.stash_pair_state(near_offset, near_partner, c.particles.arrays().id);
+    cs.stash_wall_offset.swap(wall_offset);
+    cs.stash_wall_index.swap(wall_index);
+    cs.stash_wall_element.swap(wall_element);
+    old_index_of_.resize(c.particles.id_bound());
+    for (std::size_t id = 0; id < old_index_of_.size(); ++id) old_index_of_[id] = c.particles.index(Id(id));
+    const auto now = cs.walls.carried();
+    for (std::size_t k = 0; k < ContactStore::kFields; ++k) cs.stash_walls[k].swap(*now[k]);
+  }
+  if (n > 0) c.particles.permute(perm_, scratch_);
+
+  // 3. Verlet half list, each pair owned by its lower id.
+  build_verlet(c, grid, skin_now);
+
+  // 4. Near-wall list and its state.
+  build_walls(c, skin_now, transfer, old_n);
+
+  // 5. The near list and its contact state.
+  refresh_near(c, transfer, true);
+
+  // 6. Reference state for the rebuild criterion.
+  moved = 0;
+  c.walls.mark(grid.lo, grid.hi);
+  valid = true;
+  ++rebuilds;
+}
+
+void NeighborList::build_verlet(const Context& c, const CellGrid& grid, double skin_now) {
+  // Count, prefix sum, fill, sort.
+  const std::size_t n = c.particles.size();
+  const ParticleStore& ps = c.particles.arrays();
+  pair_offset.assign(n + 1, 0);
+  const double* x = ps.x.data();
+  const double* r = ps.radius.data();
+  const Id* id = ps.id.data();
+  const Vec3& lo_cell = grid.lo;
+  const double h = grid.h;
+  const std::array<long, 3>& dims = grid.dims;
+  auto for_each_neighbor = [&](Index i, auto&& visit) {
+    const Vec3 xi = vec3(x, i);
+    auto visit_cell = [&](long cell) {
+      for (Index j = cell_start_[cell]; j < cell_start_[cell + 1]; ++j) {
+        if (id[j] <= id[i]) continue;
+        const double cut = r[i] + r[j] + skin_now;
+        if (c.domain.displacement(xi, vec3(x, j)).squaredNorm() < cut * cut) visit(j);
+      }
+    };
+    if (grid.sparse) {
+      for_each_cell_around(grid, cell_of(grid, &x[3 * i]), visit_cell);
+      return;
+    }
+    long cc[3];  // the dense grid, indexed directly (the common case: kept tight)
+    for (int d = 0; d < 3; ++d)
+      cc[d] = std::clamp(static_cast<long>((xi[d] - lo_cell[d]) / h), 0L, dims[d] - 1);
+    for (long cz = std::max(cc[2] - 1, 0L); cz <= std::min(cc[2] + 1, dims[2] - 1); ++cz)
+      for (long cy = std::max(cc[1] - 1, 0L); cy <= std::min(cc[1] + 1, dims[1] - 1); ++cy)
+        for (long cx = std::max(cc[0] - 1, 0L); cx <= std::min(cc[0] + 1, dims[0] - 1); ++cx)
+          visit_cell((cz * dims[1] + cy) * dims[0] + cx);
+  };
+  const Index ni = static_cast<Index>(n);
+#pragma omp parallel for schedule(static) num_threads(c.threads) if (c.parallel)
+  for (Index i = 0; i < ni; ++i) {
+    Index count = 0;
+    for_each_neighbor(i, [&](Index) { ++count; });
+    pair_offset[i + 1] = count;
+  }
+  for (std::size_t i = 0; i < n; ++i) pair_offset[i + 1] += pair_offset[i];
+  pair_partner.resize(static_cast<std::size_t>(pair_offset[n]));
+#pragma omp parallel for schedule(static) num_threads(c.threads) if (c.parallel)
+  for (Index i = 0; i < ni; ++i) {
+    Index e = pair_offset[i];
+    for_each_neighbor(i, [&](Index j) { pair_partner[e++] = j; });
+    insertion_sort(pair_partner.data() + pair_offset[i], pair_partner.data() + pair_offset[i + 1],
+                   [&](Index j) { return id[j]; });
+  }
+}
+
+void NeighborList::build_walls(const Context& c, double skin_now, bool transfer, std::size_t old_n) {
+  // Particles within r + skin of a wall element (or behind it).
+  const std::size_t n = c.particles.size();
+  ParticleStore& ps = c.particles.arrays();
+  const double* x = ps.x.data();
+  const double* r = ps.radius.data();
+  wall_offset.assign(n + 1, 0);
+  for (std::size_t i = 0; i < n; ++i) {
+    Index count = 0;
+    c.walls.for_each_near(vec3(x, i), r[i], skin_now, [&](Index, Index) { ++count; });
+    wall_offset[i + 1] = wall_offset[i] + count;
+  }
+  wall_index.resize(static_cast<std::size_t>(wall_offset[n]));
+  wall_element.resize(wall_index.size());
+  wall_owner.resize(wall_index.size());
+  for (std::size_t i = 0; i < n; ++i) {
+    Index e = wall_offset[i];
+    c.walls.for_each_near(vec3(x, i), r[i], skin_now, [&](Index w, Index element) {
+      wall_owner[e] = static_cast<Index>(i);
+      wall_element[e] = element;
+      wall_index[e++] = w;
+    });
+  }
+  ContactStore& cs = c.contacts;
+  cs.size(near_partner.size(), wall_index.size());
+  for (Array<double>* a : cs.walls.carried()) std::fill(a->begin(), a->end(), 0.0);
+  if (transfer) {  // wall contact state, by (id, wall, element)
+    const auto width = EntryStore::widths(cs.wall_shape);
+    const auto state = cs.walls.carried();
+    const Index ni = static_cast<Index>(n);
+    for (Index i = 0; i < ni; ++i) {
+      const Id a = ps.id[i];
+      if (a >= static_cast<Id>(old_index_of_.size())) continue;  // added since
+      const Index oi = old_index_of_[a];
+      if (static_cast<std::size_t>(oi) >= old_n) continue;
+      for (Index e = wall_offset[i]; e < wall_offset[i + 1]; ++e)
+        for (Index q = cs.stash_wall_offset[oi]; q < cs.stash_wall_offset[oi + 1]; ++q)
+          if (cs.stash_wall_index[q] == wall_index[e] && cs.stash_wall_element[q] == wall_element[e]) {
+            for (std::size_t k = 0; k < ContactStore::kFields; ++k) {
+              const Array<double>& old = cs.stash_walls[k];
+              Array<double>& now = *state[k];
+              if (now.empty() || old.empty()) continue;  // the old or new law has no such array
+              const std::size_t wd = width[k];
+              std::copy(&old[wd * q], &old[wd * q] + wd, &now[wd * e]);
+            }
+            cs.stash_walls[1][q] = 0;  // carried
+            break;
+          }
+      for (Index q = cs.stash_wall_offset[oi]; q < cs.stash_wall_offset[oi + 1]; ++q)
+        if (cs.stash_walls[1][q] > 0)  // touching, and now beyond the skin: it opened
+          ps.dissipated[i] += spring_energy(c, ps.material[i], c.walls.material(cs.stash_wall_index[q]),
+                                            cs.stash_walls[0], q);
+    }
+  }
+  for (std::size_t e = 0; e < cs.walls.overlap.size(); ++e) cs.walls.touch[e] = cs.walls.overlap[e] > 0;
+}
+
+void NeighborList::refresh(const Context& c) {
+  c.contacts.stash_pair_state(near_offset, near_partner, c.particles.arrays().id);
+  refresh_near(c, true, false);
+}
+
+void NeighborList::refresh_near(const Context& c, bool transfer, bool reordered) {
+  const std::size_t n = c.particles.size();
+  ParticleStore& ps = c.particles.arrays();
+  ContactStore& cs = c.contacts;
+  const double* x = ps.x.data();
+  const double* r = ps.radius.data();
+  const double reach = near_skin();
+
+  // 1. The pairs of the Verlet list within r_i + r_j + skin/10, in the Verlet list's order:
+  //    counted, then stored.
+  auto near = [&](std::size_t i, Index j) {
+    const double cut = r[i] + r[j] + reach;
+    return c.domain.displacement(vec3(x, i), vec3(x, j)).squaredNorm() < cut * cut;
+  };
+  // Rows are independent: counted and filled in parallel (the same list for any thread count).
+  const long ni = static_cast<long>(n);
+  near_offset.resize(n + 1);
+  near_offset[0] = 0;
+#pragma omp parallel for schedule(static) num_threads(c.threads) if (c.parallel)
+  for (long i = 0; i < ni; ++i) {
+    Index count = 0;
+    for (Index e = pair_offset[i]; e < pair_offset[i + 1]; ++e) count += near(i, pair_partner[e]);
+    near_offset[i + 1] = count;
+  }
+  for (std::size_t i = 0; i < n; ++i) near_offset[i + 1] += near_offset[i];
+  const std::size_t m = static_cast<std::size_t>(near_offset[n]);
+  fit(near_owner, m);
+  fit(near_partner, m);
+  fit(near_cut2, m);
+#pragma omp parallel for schedule(static) num_threads(c.threads) if (c.parallel)
+  for (long i = 0; i < ni; ++i) {
+    Index q = near_offset[i];
+    for (Index e = pair_offset[i]; e < pair_offset[i + 1]; ++e) {
+      const Index j = pair_partner[e];
+      if (!near(i, j)) continue;
+      near_owner[q] = static_cast<Index>(i);
+      near_partner[q] = j;
+      near_cut2[q++] = (r[i] + r[j]) * (r[i] + r[j]);
+    }
+  }
+
+  // 2. Contact state, carried over by (owner id, partner id): rows are sorted by partner id.
+  cs.size(near_partner.size(), wall_index.size());
+  for (Array<double>* a : cs.pairs.carried()) std::fill(a->begin(), a->end(), 0.0);
+  const std::size_t old_n = cs.stash_offset.size() == 0 ? 0 : cs.stash_offset.size() - 1;
+  if (transfer && old_n > 0) {
+    // Only touching entries have state (an entry's results and history are zeroed when it
+    // opens; a rough entry redraws its facet at first touch).
+    const auto state = cs.pairs.carried();
+    const auto width = EntryStore::widths(cs.pair_shape);
+    std::array<Array<double>*, ContactStore::kFields> now_state;
+    for (std::size_t k = 0; k < ContactStore::kFields; ++k)
+      now_state[k] = (state[k]->empty() || cs.stash_pairs[k].empty()) ? nullptr : state[k];
+    // (the stash holds touching entries only, rows sorted by partner id)
+    const Array<double>& old_overlap = cs.stash_pairs[1];
+    const Array<Index>& old_offset = cs.stash_offset;
+    const Array<Id>& old_partner = cs.stash_partner;
+    // Each row writes only its own entries, its own old row and its own dissipation.
+#pragma omp parallel for schedule(static) num_threads(c.threads) if (c.parallel)
+    for (long i = 0; i < ni; ++i) {
+      Index oi = static_cast<Index>(i);
+      if (reordered) {
+        if (ps.id[i] >= static_cast<Id>(old_index_of_.size())) continue;  // added since
+        oi = old_index_of_[ps.id[i]];
+      }
+      if (static_cast<std::size_t>(oi) >= old_n) continue;
+      Index p = old_offset[oi];
+      const Index p_end = old_offset[oi + 1];
+      for (Index q = near_offset[i]; q < near_offset[i + 1] && p < p_end; ++q) {
+        const Id b = ps.id[near_partner[q]];
+        while (p < p_end && old_partner[p] < b) ++p;
+        if (p == p_end || old_partner[p] != b || !(old_overlap[p] > 0)) continue;
+        for (std::size_t k = 0; k < ContactStore::kFields; ++k) {
+          if (!now_state[k]) continue;  // the old or new law has no such array
+          const std::size_t wd = width[k];
+          const double* from = cs.stash_pairs[k].data() + wd * p;
+          std::copy(from, from + wd, now_state[k]->data() + wd * q);
+        }
+        cs.stash_pairs[1][p] = 0;  // carried
+      }
+      for (p = old_offset[oi]; p < p_end; ++p)
+        if (old_overlap[p] > 0) {  // touching, and now beyond the near list: it opened
+          const Index j = c.particles.index(old_partner[p]);
+          ps.dissipated[i] += spring_energy(c, ps.material[i], ps.material[j], cs.stash_pairs[0], p);
+        }
+    }
+  }
+  for (std::size_t q = 0; q < cs.pairs.overlap.size(); ++q) cs.pairs.touch[q] = cs.pairs.overlap[q] > 0;
+
+  // 3. Reverse index: for each particle, the entries where it is the partner, by owner id.
+  near_rev_offset.assign(n + 1, 0);
+  for (std::size_t q = 0; q < m; ++q) ++near_rev_offset[near_partner[q] + 1];
+  for (std::size_t i = 0; i < n; ++i) near_rev_offset[i + 1] += near_rev_offset[i];
+  fit(near_rev, m);
+  {
+    Array<Index>& fill = scratch_int_;
+    fill.assign(near_rev_offset.begin(), near_rev_offset.end() - 1);
+    for (std::size_t q = 0; q < m; ++q) near_rev[fill[near_partner[q]]++] = static_cast<Index>(q);
+  }
+#pragma omp parallel for schedule(static) num_threads(c.threads) if (c.parallel)
+  for (long i = 0; i < ni; ++i)
+    if (near_rev_offset[i + 1] - near_rev_offset[i] > 1)
+      insertion_sort(near_rev.data() + near_rev_offset[i], near_rev.data() + near_rev_offset[i + 1],
+                     [&](Index q) { return ps.id[near_owner[q]]; });
+  // 4. The near-wall entries, and the particles with entries.
+  const bool moving = c.walls.moving();
+  wall_near_offset.resize(n + 1);
+  wall_near_offset[0] = 0;
+  wall_near.clear();
+  wall_near.reserve(wall_index.size());
+  for (std::size_t i = 0; i < n; ++i) {
+    for (Index e = wall_offset[i]; e < wall_offset[i + 1]; ++e) {
+      if (moving || cs.walls.touch[e] || c.walls.gap(vec3(x, i), r[i], wall_index[e], wall_element[e]) < reach)
+        wall_near.push_back(e);
+    }
+    wall_near_offset[i + 1] = static_cast<Index>(wall_near.size());
+  }
+  loaded.assign(n, 0);
+  busy.clear();
+  for (std::size_t i = 0; i < n; ++i)
+    if (wall_near_offset[i + 1] > wall_near_offset[i] || near_offset[i + 1] > near_offset[i] ||
+        near_rev_offset[i + 1] > near_rev_offset[i])
+      busy.push_back(static_cast<Index>(i));
+  build_sum_entries(c);
+  measure();
+  fit(active, wall_near.size());  // the walls in contact (engine/contact_pass.hpp)
+  cache_terms(c);
+  moved_near = 0;
+  ++refreshes;
+}
+
+void NeighborList::build_sum_entries(const Context& c) {
+  const std::size_t nb = busy.size();
+  const std::size_t largest = std::max(near_partner.size(), wall_index.size());
+  if (largest >= (std::size_t(1) << 29)) {  // no room for the tags: the particle pass loops
+    sum_offset.clear();
+    sum_entry.clear();
+    return;
+  }
+  fit(sum_offset, nb + 1);
+  sum_offset[0] = 0;
+  for (std::size_t b = 0; b < nb; ++b) {
+    const Index k = busy[b];
+    sum_offset[b + 1] = sum_offset[b] + (wall_near_offset[k + 1] - wall_near_offset[k]) +
+                        (near_offset[k + 1] - near_offset[k]) +
+                        (near_rev_offset[k + 1] - near_rev_offset[k]);
+  }
+  fit(sum_entry, static_cast<std::size_t>(sum_offset[nb]));
+  const long nbl = static_cast<long>(nb);
+#pragma omp parallel for schedule(static) num_threads(c.threads) if (c.parallel)
+  for (long b = 0; b < nbl; ++b) {
+    const Index k = busy[b];
+    std::uint32_t* out = sum_entry.data() + sum_offset[b];
+    auto put = [&](Index e, std::uint32_t kind) { *out++ = (std::uint32_t(e) << 3) | kind; };
+    for (Index p = wall_near_offset[k]; p < wall_near_offset[k + 1]; ++p) put(wall_near[p], 2);
+    for (Index q = near_offset[k]; q < near_offset[k + 1]; ++q) put(q, 0);
+    for (Index p = near_rev_offset[k]; p < near_rev_offset[k + 1]; ++p) put(near_rev[p], 1);
+    sum_entry[sum_offset[b]] |= 4u;  // a busy particle has at least one entry
+  }
+}
+
+void NeighborList::measure() {
+  Index below = 0, above = 0, most = 0;
+  for (std::size_t q = 0; q < near_partner.size(); ++q) {
+    below = std::max(below, near_owner[q] - near_partner[q]);
+    above = std::max(above, near_partner[q] - near_owner[q]);
+  }
+  for (const Index k : busy)
+    most = std::max(most, (wall_near_offset[k + 1] - wall_near_offset[k]) +
+                              (near_offset[k + 1] - near_offset[k]) +
+                              (near_rev_offset[k + 1] - near_rev_offset[k]));
+  reach_below = below;
+  reach_above = above;
+  max_entries = most;
+}
+
+void NeighborList::cache_terms(const Context& c) {
+  const std::size_t width = c.law.entry_width;
+  fit(near_entry, width * near_partner.size());
+  const ParticleStore& ps = c.particles.arrays();
+  const double *mass = ps.mass.data(), *radius = ps.radius.data();
+  const int* material = ps.material.data();
+  for (std::size_t q = 0; q < near_partner.size(); ++q) {
+    const Index i = near_owner[q], j = near_partner[q];
+    const double m_eff = mass[i] * mass[j] / (mass[i] + mass[j]);
+    const double r_eff = radius[i] * radius[j] / (radius[i] + radius[j]);
+    c.law.entry_terms(c.pairs(material[i], material[j]), m_eff, r_eff, near_entry.data() + width * q);
+  }
+}
+
+void NeighborList::rebuild_empty(const Context& c, double skin_now) { rebuild(c, skin_now, false); }
+
+void NeighborList::finish_restore(const Context& c) { refresh_near(c, false, false); }
+
+double NeighborList::spring_energy(const Context& c, int a, int b, const Array<double>& xi, std::size_t e) {
+  if (xi.empty()) return 0;
+  return c.law.tangential_energy(c.pairs(a, b), xi.data() + c.law.history_width * e);
+}
+
+std::vector<std::array<Id, 2>> NeighborList::pairs_by_id(const Particles& particles) const {
+  std::vector<std::array<Id, 2>> out;
+  const std::size_t n = particles.size();
+  if (pair_offset.size() != n + 1) return out;
+  for (std::size_t i = 0; i < n; ++i)
+    for (Index e = pair_offset[i]; e < pair_offset[i + 1]; ++e)
+      out.push_back({particles.id(Index(i)), particles.id(pair_partner[e])});
+  std::sort(out.begin(), out.end());
+  return out;
+}
+
+namespace {
+template <class... A>
+std::size_t capacity_bytes(const A&... v) {
+  return ((v.capacity() * sizeof(typename A::value_type)) + ... + 0);
+}
+}  // namespace
+
+std::size_t NeighborList::verlet_bytes() const { return capacity_bytes(pair_offset, pair_partner); }
+std::size_t NeighborList::near_bytes() const {
+  return capacity_bytes(near_offset, near_owner, near_partner, near_rev_offset, near_rev, near_cut2,
+                        near_entry, sum_entry);
+}
+std::size_t NeighborList::wall_bytes() const {
+  return capacity_bytes(wall_offset, wall_index, wall_element, wall_owner, wall_near_offset, wall_near);
+}
+std::size_t NeighborList::scratch_bytes() const {
+  return capacity_bytes(cell_start_, cell_of_, cell_key_, perm_, old_index_of_, active, scratch_,
+                        scratch_int_);
+}
+
+}  // namespace tsubu
