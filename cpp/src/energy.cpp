@@ -17,12 +17,6 @@ using detail::finite3;
 using detail::fmt;
 using detail::require;
 
-namespace {
-// k_t of a stored history: a linear spring's, or Mindlin's 8 G* a with the a the history keeps.
-double tangential_stiffness(const PairParams& p, const double* history, int width) {
-  return width > 3 ? 8.0 * p.effective_shear_modulus * history[3] : p.kt;
-}
-}  // namespace
 
 Energy Simulation::energy_now() const {
   Energy e = energy();
@@ -57,7 +51,7 @@ Energy Simulation::energy_now() const {
       const double* h = contacts_.pairs.xi.data() + law.history_width * q;
       e.elastic += law.tangential_energy(p, h);
       const Vec3 lever = contact_lever(ri, delta) * vec3(w, i) + contact_lever(rj, delta) * vec3(w, j);
-      power += tangential_stiffness(p, h, law.history_width) * Vec3(h[0], h[1], h[2]).dot(slip(n, vrel, lever));
+      power += law.tangential_stiffness(p, h) * Vec3(h[0], h[1], h[2]).dot(slip(n, vrel, lever));
     }
     for (Index k = lists_.wall_offset[i]; k < lists_.wall_offset[i + 1]; ++k) {
       const Plane& P = walls_.plane(lists_.wall_index[k]);
@@ -70,7 +64,7 @@ Energy Simulation::energy_now() const {
       if (contacts_.walls.xi.empty()) continue;
       const double* h = contacts_.walls.xi.data() + law.history_width * k;
       e.elastic += law.tangential_energy(p, h);
-      power += tangential_stiffness(p, h, law.history_width) *
+      power += law.tangential_stiffness(p, h) *
                Vec3(h[0], h[1], h[2]).dot(slip(P.normal, vec3(v, i), contact_lever(ri, delta) * vec3(w, i)));
     }
   }

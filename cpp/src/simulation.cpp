@@ -10,6 +10,7 @@
 
 #include "tsubu/registry.hpp"
 #include "check.hpp"
+#include "tsubu/contact/selection.hpp"
 
 #ifdef TSUBU_HAVE_OPENMP
 #include <omp.h>
@@ -55,7 +56,7 @@ void Simulation::set_pair_parameters(int a, int b, const PairParams& p) {
   material(a);
   material(b);
   validate_pair(p);
-  require(HertzParams::used(p) == HertzParams::used(pair_parameters(a, b)),
+  require(laws::hertzian(p) == laws::hertzian(pair_parameters(a, b)),
           "a pair's override keeps its materials' law: effective_modulus > 0 exactly when both "
           "materials are Hertzian");
   PairParams q = p;
@@ -79,10 +80,7 @@ PairParams Simulation::pair_parameters(int a, int b) const {
     if ((key[0] == a && key[1] == b) || (key[0] == b && key[1] == a)) p = overrides_[k], found = true;
   }
   if (!found) p = mix(material(a), material(b));
-  if (HertzParams::used(p)) {  // the scene's choice of a clipped force and its damping
-    p.normal_floor = opt_.repulsive ? 0.0 : -std::numeric_limits<double>::infinity();
-    p.finalise();
-  }
+  laws::apply_options(p, opt_);  // e.g. the scene's choice of a clipped Hertzian force
   return p;
 }
 

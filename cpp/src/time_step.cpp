@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "check.hpp"
+#include "tsubu/contact/selection.hpp"
 
 namespace tsubu {
 
@@ -62,17 +63,11 @@ double Simulation::default_time_step() const {
 }
 
 double Simulation::rayleigh_time() const {
-  std::vector<double> smallest(materials_.size(), std::numeric_limits<double>::infinity());
-  for (std::size_t k = 0; k < particles_.size(); ++k)
-    smallest[particles_.arrays().material[k]] = std::min(smallest[particles_.arrays().material[k]], particles_.arrays().radius[k]);
+  std::vector<double> lightest, smallest;
+  particles_.extremes(materials_.size(), lightest, smallest);
   double t = std::numeric_limits<double>::infinity();
-  for (std::size_t a = 0; a < materials_.size(); ++a) {
-    const Material& m = materials_[a];
-    if (!(m.youngs_modulus > 0) || !std::isfinite(smallest[a])) continue;
-    const double shear = m.youngs_modulus / (2.0 * (1.0 + m.poisson_ratio));
-    t = std::min(t, M_PI * smallest[a] * std::sqrt(m.density / shear) /
-                        (0.1631 * m.poisson_ratio + 0.8766));
-  }
+  for (std::size_t a = 0; a < materials_.size(); ++a)
+    if (std::isfinite(smallest[a])) t = std::min(t, laws::rayleigh_time(materials_[a], smallest[a]));
   return t;
 }
 
@@ -92,7 +87,7 @@ bool Simulation::hertzian() const {
   int hertz = -1, linear = -1;
   for (std::size_t a = 0; a < materials_.size(); ++a) {
     if (!used[a]) continue;
-    (materials_[a].youngs_modulus > 0 ? hertz : linear) = static_cast<int>(a);
+    (laws::hertzian(materials_[a]) ? hertz : linear) = static_cast<int>(a);
   }
   require(hertz < 0 || linear < 0, [&] {
     return "the scene mixes a Hertzian material (material " + std::to_string(hertz) +
@@ -110,33 +105,17 @@ double Simulation::skin() const {
   return 0.2 * 2.0 * particles_.radius_sum() / static_cast<double>(particles_.size());
 }
 
-// Each slot takes the evaluator the scene needs: the simplest that gives its physics.
 LawKey Simulation::law_key() const {
-  bool friction = false, rolling = false, rough = false;
   const bool hertz = hertzian();
+  laws::PairNeeds scene;
   const std::size_t nm = materials_.size();
   for (std::size_t a = 0; a < nm; ++a)
     for (std::size_t b = a; b < nm; ++b) {
-      const PairParams p = pair_parameters(int(a), int(b));
-      friction |= hertz ? MindlinRotate::used(p) : FrictionParams::used(p);
-      rolling |= RollingParams::used(p);
-      rough |= RoughnessParams::used(p);
+      const laws::PairNeeds pair = laws::needs(pair_parameters(int(a), int(b)), hertz);
+      scene.friction |= pair.friction;
+      scene.rolling |= pair.rolling;
+      scene.rough |= pair.rough;
     }
-  LawKey key;
-  key.normal = hertz ? NormalLaws::index_of<HertzNormal>() : NormalLaws::index_of<HookeNormal>();
-  key.damping = hertz ? DampingLaws::index_of<HertzDamping>() : DampingLaws::index_of<RestitutionDamping>();
-  require(!(hertz && friction && opt_.history == HistoryRule::Literal),
-          "tangential_history='literal' is offered for the linear law only; Hertzian scenes use "
-          "'rotate'");
-  key.tangential = !friction                          ? TangentialLaws::index_of<NoTangential>()
-                   : hertz ? (opt_.slip == SlipRule::Truncate ? TangentialLaws::index_of<MindlinRotateTruncate>()
-                                                              : TangentialLaws::index_of<MindlinRotate>())
-                   : opt_.history == HistoryRule::Literal ? TangentialLaws::index_of<TangentialLiteral>()
-                   : opt_.slip == SlipRule::Truncate   ? TangentialLaws::index_of<TangentialRotateTruncate>()
-                                                       : TangentialLaws::index_of<TangentialRotate>();
-  key.rolling = rolling ? RollingLaws::index_of<RollingFriction>() : RollingLaws::index_of<NoRolling>();
-  key.roughness =
-      rough ? RoughnessLaws::index_of<StochasticRoughness>() : RoughnessLaws::index_of<NoRoughness>();
-  return key;
+  return laws::select(hertz, scene, opt_);
 }
 }  // namespace tsubu

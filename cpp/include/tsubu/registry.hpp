@@ -81,6 +81,7 @@ struct CompiledLaw {
   double (*normal_energy)(const PairParams&, double overlap, double r_eff);
   double (*elastic_force)(const PairParams&, double overlap, double r_eff);  // no dashpot
   double (*tangential_energy)(const PairParams&, const double* history);
+  double (*tangential_stiffness)(const PairParams&, const double* history);  // 0: no spring
   int entry_width, history_width, rough_width;
   bool torque, rolling;
 };

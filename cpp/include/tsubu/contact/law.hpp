@@ -62,10 +62,10 @@ struct ContactLaw {
     const double fn = Normal::force(q, s, delta, eta_n, vn, power);
     force = fn * n;
     if constexpr (Tangential::enabled) {
-      const double* t = q + kNormalParams;  // k_t (or its scale), mu, eta_t / eta_n
+      const double* t = q + kNormalParams;  // the tangential law's packed parameters
       Tangential::follow(t, s, dt, xi, aux, power);
-      const L3 ft = Tangential::lane(n, vt, Tangential::stiffness(t, s), t[2] * eta_n,
-                                     t[1] * std::abs(fn), dt, xi, power);
+      const L3 ft = Tangential::lane(n, vt, Tangential::stiffness(t, s), Tangential::damping(t, eta_n),
+                                     Tangential::cap(t, fn), dt, xi, power);
       force = force + ft;
       n_cross_ft = cross(n, ft);
     } else {
@@ -120,6 +120,17 @@ struct ContactLaw {
     (void)p, (void)xi;
     return 0;
   }
+  // The tangential spring's stiffness for a stored history (the energy audit's power); 0
+  // without one.
+  static double tangential_stiffness(const PairParams& p, const double* xi) {
+    if constexpr (has_history) {
+      double q[Tangential::kLaneParams];
+      Tangential::pack(p, q);
+      return Tangential::history_stiffness(q, xi);
+    }
+    (void)p, (void)xi;
+    return 0;
+  }
   // Whether a pair's parameters give it a tangential force under this law.
   static bool friction_used(const PairParams& p) {
     if constexpr (Tangential::enabled) return Tangential::used(p);
@@ -139,13 +150,10 @@ struct ContactLaw {
     const double m = s.mass, eta = dashpot(p, s);
     return std::sqrt(stiffness(p, s) / m - eta * eta / (4 * m * m));
   }
-  // How long an impact at scale s lasts: pi / alpha (B.5) for a linear spring; Hertz's
-  // t_c = 2.87 (m*^2 / (R* E*^2 v))^(1/5) (Johnson 1985, eq. 11.24) for a Hertzian contact.
+  // How long an impact at scale s lasts, as the normal law says (it may use the damped
+  // oscillation's rate, computed on demand).
   static double contact_duration(const PairParams& p, const ContactScale& s) {
-    if constexpr (std::is_same_v<Normal, HertzNormal>)
-      return 2.868265 * std::pow(s.mass * s.mass / (s.radius * p.effective_modulus *
-                                                     p.effective_modulus * s.speed), 0.2);
-    return M_PI / oscillation_rate(p, s);
+    return Normal::contact_duration(p, s, [&] { return oscillation_rate(p, s); });
   }
   // The largest stable dt of symplectic Euler for a contact at scale s (2.31), with the
   // tangential spring where the law has one (for a Hertzian contact: at the stiffest overlap of

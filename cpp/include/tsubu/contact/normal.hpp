@@ -60,6 +60,11 @@ struct HookeNormal {
   // The state of the spring (the same at every overlap), for the stability bound and the
   // contact duration.
   static NormalState stiffest(const Params& p, const ContactScale&) { return {p.kn, 1.0}; }
+  // How long an impact lasts: half a period of the damped oscillation, pi / alpha (B.5).
+  template <class Rate>
+  static double contact_duration(const Params&, const ContactScale&, Rate&& damped_rate) {
+    return M_PI / damped_rate();
+  }
 };
 
 // Hertz's elastic sphere: F_n = (4/3) E* sqrt(R*) delta^(3/2) (Johnson 1985, eq. 4.22), with the
@@ -129,6 +134,12 @@ struct HertzNormal {
   static double peak_overlap(const Params& p, const ContactScale& s) {
     return std::pow(15.0 * s.mass * s.speed * s.speed /
                         (16.0 * p.effective_modulus * std::sqrt(s.radius)), 0.4);
+  }
+  // Hertz's t_c = 2.87 (m*^2 / (R* E*^2 v))^(1/5) (Johnson 1985, eq. 11.24) at the scale's speed.
+  template <class Rate>
+  static double contact_duration(const Params& p, const ContactScale& s, Rate&&) {
+    return 2.868265 * std::pow(s.mass * s.mass / (s.radius * p.effective_modulus *
+                                                   p.effective_modulus * s.speed), 0.2);
   }
   // The stiffest the contact gets in such an impact: S_n = 2 E* a at a = sqrt(R* delta_max).
   static NormalState stiffest(const Params& p, const ContactScale& s) {

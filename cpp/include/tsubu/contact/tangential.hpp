@@ -56,6 +56,12 @@ struct TangentialSpring {
   }
   // k_t at the contact's normal state: a linear spring's is fixed.
   TSUBU_INLINE static double stiffness(const double* q, const NormalState&) { return q[0]; }
+  // k_t of a stored history (the energy audit's power): fixed.
+  static double history_stiffness(const double* q, const double* /*xi*/) { return q[0]; }
+  // eta_t = (eta_t / eta_n) eta_n (1.11) and the Coulomb cap mu |f_n| (1.17), from the lane's
+  // packed parameters.
+  TSUBU_INLINE static double damping(const double* q, double eta_n) { return q[2] * eta_n; }
+  TSUBU_INLINE static double cap(const double* q, double fn) { return q[1] * std::abs(fn); }
   // What the history does when the normal state changes: nothing for a fixed k_t.
   TSUBU_INLINE static void follow(const double*, const NormalState&, double, L3&, double&, double&) {}
 };
@@ -190,6 +196,8 @@ struct MindlinRule : TangentialRotateRule<kTruncate> {
     return 0.5 * q[0] * xi[3] * (xi[0] * xi[0] + xi[1] * xi[1] + xi[2] * xi[2]);
   }
   TSUBU_INLINE static double stiffness(const double* q, const NormalState& s) { return q[0] * s.size; }
+  // 8 G* a with the a the history keeps.
+  static double history_stiffness(const double* q, const double* xi) { return q[0] * xi[3]; }
   TSUBU_INLINE static void follow(const double* q, const NormalState& s, double dt, L3& xi,
                                   double& a_old, double& power) {
     const double a = s.size;

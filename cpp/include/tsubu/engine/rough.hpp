@@ -20,9 +20,7 @@ struct Rough {
   static bool enduring(const PairParams& p, const ContactScale& s, const double* st,
                        std::uint64_t step, double dt) {
     if (st[0] == 0 && st[1] == 0 && st[2] == 0) return false;
-    if constexpr (std::is_same_v<typename Law::normal, HertzNormal>)
-      return (double(step) - st[4]) * dt > 2.0 * Law::contact_duration(p, s);
-    return (double(step) - st[4]) * dt > 2.0 * M_PI / Law::oscillation_rate(p, s);
+    return (double(step) - st[4]) * dt > 2.0 * Law::contact_duration(p, s);
   }
 
   // Rough pair: at first touch a tilted normal n' is drawn and frozen for the impact, and the
