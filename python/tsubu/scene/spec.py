@@ -5,9 +5,9 @@ Schema and the key reference are generated from it (:mod:`tsubu.scene.reference`
 
 from __future__ import annotations
 
-from .. import _core
-from .language import (ArrayOf, Boolean, Field, Integer, MapOf, Number, NumberList, String, Table,
-                       Tagged, Vector, _NameList)
+from .._options import DECLARATIONS, declared
+from .language import (ArrayOf, Boolean, Field, Integer, MapOf, Node, Number, NumberList, String,
+                       Table, Tagged, Vector, _NameList)
 
 
 # The version of the scene format (documented as tsubu.scene.FORMAT_VERSION).
@@ -16,43 +16,44 @@ FORMAT_VERSION = 1
 
 # ---- the scene format --------------------------------------------------------------------------
 # Units, defaults and meanings are those of the Python API (tsubu.Material, tsubu.Simulation,
-# tsubu.fill, tsubu.insert, tsubu.output); the ranges are tsubu's own checks (tests/test_scene.py
-# checks that Material refuses what the spec refuses).
+# tsubu.fill, tsubu.insert, tsubu.output); the materials', pairs' and simulation's options are
+# their declarations (_option), the other ranges tsubu's own checks (tests/test_scene.py checks
+# that Material refuses what the spec refuses).
 
 POSITIVE = dict(minimum=0.0, exclusive_minimum=True)
 NON_NEGATIVE = dict(minimum=0.0)
 XYZ = "array of 3 numbers"
 
 
-def _material_table() -> Table:
-    def number(doc, unit="", default=None, **bounds):
-        return Field(Number(unit=unit, **bounds), doc, default=default, unit=unit)
+def _option(name: str, doc: str | None = None, default: str | None = None) -> Field:
+    """The key of option ``name`` as its declaration says it (cpp/include/tsubu/option_table.hpp:
+    type, unit, range, default, doc); ``doc`` and ``default`` replace the declared text where a
+    scene file says more."""
+    d = DECLARATIONS[name]
+    if d.kind == "real":
+        bounds = {}
+        if d.minimum is not None:
+            bounds.update(minimum=d.minimum, exclusive_minimum=d.exclusive_minimum)
+        if d.maximum is not None:
+            bounds.update(maximum=d.maximum, exclusive_maximum=d.exclusive_maximum)
+        node: Node = Number(unit=d.unit, **bounds)
+    elif d.kind == "integer":
+        node = Integer(d.minimum, d.maximum)
+    elif d.kind == "flag":
+        node = Boolean()
+    elif d.kind == "choice":
+        node = String(tuple(d.choices))
+    else:
+        node = Vector(unit=d.unit)
+    return Field(node, d.doc if doc is None else doc,
+                 default=d.default_text if default is None else default, unit=d.unit)
 
-    return Table({
-        "density": number("Mass density.", "kg/m^3", "2500", **POSITIVE),
-        "kn": number("Normal spring stiffness of the linear (Kelvin-Voigt) law.", "N/m",
-                     "1e3 for a linear material", **POSITIVE),
-        "kt": number("Tangential spring stiffness of the linear law.", "N/m", "2/7 kn",
-                     **NON_NEGATIVE),
-        "youngs_modulus": number("Young's modulus E: makes the material Hertz-Mindlin (then kn, kt "
-                                 "must not be given).", "Pa", "none (linear)", **POSITIVE),
-        "poisson_ratio": number("Poisson's ratio of a Hertzian material.", "", "0.3 with youngs_modulus",
-                                minimum=-1.0, maximum=0.5, exclusive_minimum=True),
-        "restitution": number("Normal coefficient of restitution.", "", "0.5",
-                              minimum=0.0, maximum=1.0, exclusive_minimum=True),
-        "friction": number("Coulomb friction coefficient (0: frictionless).", "", "0.5", **NON_NEGATIVE),
-        "rolling_friction": number("Rolling friction coefficient.", "", "0", **NON_NEGATIVE),
-        "tangential_damping": number("Tangential dashpot as a fraction of the normal one.", "", "0",
-                                     **NON_NEGATIVE),
-        "roughness": number("Standard deviation of the roughness scatter angle (docs/roughness.md).",
-                            "degrees", "0", minimum=0.0, maximum=90.0, exclusive_maximum=True),
-        "roughness_distribution": Field(String(tuple(_core.choices["roughness_distribution"])),
-                                        "Distribution of the roughness tilt.", default='"normal"'),
-        "shadow": Field(String(tuple(_core.choices["shadow"])),
-                        "Shadow effect at walls (docs/roughness.md).", default='"reject"'),
-    }, doc="A material: the fields of tsubu.Material (SI units; roughness in degrees). The table's "
-           "name (materials.NAME) is how walls, particles and inserters refer to it.",
-        exclusive=(("kn", "youngs_modulus"), ("kt", "youngs_modulus")), name="materials.NAME")
+
+def _material_table() -> Table:
+    return Table({name: _option(name) for name in declared("material")},
+                 doc="A material: the fields of tsubu.Material (SI units; roughness in degrees). The "
+                     "table's name (materials.NAME) is how walls, particles and inserters refer to it.",
+                 exclusive=(("kn", "youngs_modulus"), ("kt", "youngs_modulus")), name="materials.NAME")
 
 
 def _region() -> Tagged:
@@ -132,51 +133,26 @@ def _build_spec() -> Table:
     material_name = String()
     simulation = Table({
         "duration": Field(Number("s", **NON_NEGATIVE), "Simulated time to run.", required=True, unit="s"),
-        "gravity": Field(Vector(unit="m/s^2"), "Gravitational acceleration.", default="[0, 0, -9.81]",
-                         unit="m/s^2"),
-        "dt": Field(Number("s", **POSITIVE), "Time step.", default="dt_fraction's", unit="s"),
+        "gravity": _option("gravity"),
+        "dt": _option("dt", default="dt_fraction's"),
         "dt_fraction": Field(Number(minimum=0.0, maximum=1.0, exclusive_minimum=True),
                              "Time step as a fraction of the scene's shortest contact duration "
                              "(Simulation.contact_duration(), with the spheres of the particles "
                              "blocks and the smallest spheres of the inserters).",
                              default="0.02 (tsubu's t_c/50)"),
-        "seed": Field(Integer(0, 2**64 - 1), "Seed of the roughness draws.", default="0"),
-        "threads": Field(Integer(1, 4096), "OpenMP threads (`tsubu run --threads` overrides it).",
-                         default="all cores"),
-        "parallel_min": Field(Integer(0, 2**31 - 1), "Scenes with fewer spheres run on one thread.",
-                              default="2048"),
-        "skin": Field(Number("m", **POSITIVE), "Neighbour-list skin.", default="0.2 mean diameter",
-                      unit="m"),
-        "tangential_history": Field(String(tuple(_core.choices["tangential_history"])),
-                                    "How the tangential displacement follows the contact.",
-                                    default='"rotate"'),
-        "slip_rule": Field(String(tuple(_core.choices["slip_rule"])), "What a slipping contact does.",
-                           default='"frozen"'),
-        "hertz_force": Field(String(("signed", "repulsive")), "Normal force of Hertzian materials.",
-                             default='"signed"'),
-        "impact_speed": Field(Number("m/s", **POSITIVE), "Impact speed for a Hertzian scene's contact "
-                                                         "duration.", default="measured", unit="m/s"),
-        "max_overlap": Field(Number(**POSITIVE), "Overlap (fraction of a radius) that stops a run as "
-                                                 "unstable.", default="0.5"),
-        "initial_overlap": Field(Number(**NON_NEGATIVE), "Largest initial overlap accepted (fraction of "
-                                                         "a radius).", default="0.05"),
-        "allow_unstable_dt": Field(Boolean(), "Run with a dt above the stability bound.", default="false"),
-        "rebuild_every_step": Field(Boolean(), "Rebuild the neighbour list every step (a testing aid).",
-                                    default="false"),
+        "seed": _option("seed"),
+        "threads": _option("threads", "OpenMP threads (`tsubu run --threads` overrides it)."),
+        **{name: _option(name) for name in ("parallel_min", "skin", "tangential_history", "slip_rule",
+                                            "hertz_force", "impact_speed", "max_overlap",
+                                            "initial_overlap", "allow_unstable_dt",
+                                            "rebuild_every_step")},
     }, doc="The simulation's options (tsubu.Simulation) and how long to run.",
         exclusive=(("dt", "dt_fraction"),), name="simulation")
 
     pair = Table({
         "materials": Field(_NameList(), "The two materials' names.",
                            required=True),
-        **{k: Field(f.node, f.doc, default="mixed", unit=f.unit) for k, f in _material_table().fields.items()
-           if k in ("kn", "kt", "restitution", "friction", "rolling_friction", "tangential_damping",
-                    "roughness", "roughness_distribution", "shadow")},
-        "effective_modulus": Field(Number("Pa", **POSITIVE), "E* of a pair of Hertzian materials.",
-                                   default="mixed", unit="Pa"),
-        "effective_shear_modulus": Field(Number("Pa", **NON_NEGATIVE), "G* of a pair of Hertzian "
-                                                                       "materials.", default="mixed",
-                                         unit="Pa"),
+        **{name: _option(name, default="mixed") for name in declared("pair")},
     }, doc="A per-pair override of the mixed contact parameters (Simulation.set_pair).", name="pairs")
 
     wall = Table({
