@@ -17,6 +17,7 @@ const char* field_doc(const char* name) {
   std::string doc = d.doc;
   if (!unit.empty()) doc += " [" + unit + "]";
   if (d.kind == tsubu::OptionKind::Real) doc += " Must be " + tsubu::declared_range(d) + ".";
+  if (d.kind == tsubu::OptionKind::Choice) doc += std::string(" Default \"") + d.choices[0] + "\".";
   docs.push_back(doc);
   return docs.back().c_str();
 }
@@ -37,11 +38,13 @@ void law_fields(py::class_<C>& cls, py::list& fields) {
   number("roughness", &C::roughness);
   cls.def_property(
       "roughness_distribution", [](const C& c) { return name_of(c.roughness_distribution); },
-      [](C& c, const std::string& v) { c.roughness_distribution = parse<tsubu::ScatterDistribution>(v); });
+      [](C& c, const std::string& v) { c.roughness_distribution = parse<tsubu::ScatterDistribution>(v); },
+      field_doc("roughness_distribution"));
   fields.append("roughness_distribution");
   cls.def_property(
       "shadow", [](const C& c) { return name_of(c.shadow); },
-      [](C& c, const std::string& v) { c.shadow = parse<tsubu::ShadowRule>(v); });
+      [](C& c, const std::string& v) { c.shadow = parse<tsubu::ShadowRule>(v); },
+      field_doc("shadow"));
   fields.append("shadow");
 }
 

@@ -35,6 +35,11 @@ std::string declared_range(const OptionDeclaration& d) {
 void check_declared(const OptionDeclaration& d, double core_value, const char* prefix) {
   if (*d.zero_means && core_value == 0) return;
   require(in_declared_range(d, core_value), [&] {
+    if (d.kind == OptionKind::Integer)  // the bound it is beyond, as Python's checks say it
+      return std::string(prefix) + d.name + " must be " +
+             (core_value < d.minimum ? ">= " + std::to_string(static_cast<long long>(d.minimum))
+                                     : "<= " + std::to_string(d.integer_maximum)) +
+             ", got " + std::to_string(static_cast<long long>(core_value));
     return std::string(prefix) + d.name + " must be " + declared_range(d) + ", got " +
            fmt(core_value);
   });

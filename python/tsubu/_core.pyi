@@ -17,8 +17,6 @@ class Material:
     One material (SI units, roughness in radians)
     """
     fields: typing.ClassVar[tuple] = ('density', 'youngs_modulus', 'poisson_ratio', 'kn', 'kt', 'restitution', 'friction', 'rolling_friction', 'tangential_damping', 'roughness', 'roughness_distribution', 'shadow')
-    roughness_distribution: str
-    shadow: str
     def __init__(self, **kwargs) -> None:
         """
         Keywords: any of `fields`; the others keep their defaults
@@ -90,6 +88,22 @@ class Material:
     def roughness(self, arg0: typing.SupportsFloat | typing.SupportsIndex) -> None:
         ...
     @property
+    def roughness_distribution(self) -> str:
+        """
+        Distribution of the roughness tilt. Default "normal".
+        """
+    @roughness_distribution.setter
+    def roughness_distribution(self, arg1: str) -> None:
+        ...
+    @property
+    def shadow(self) -> str:
+        """
+        Shadow effect at walls (docs/roughness.md). Default "reject".
+        """
+    @shadow.setter
+    def shadow(self, arg1: str) -> None:
+        ...
+    @property
     def tangential_damping(self) -> float:
         """
         Tangential dashpot as a fraction of the normal one. Must be a finite number >= 0.
@@ -110,8 +124,6 @@ class PairParams:
     The contact parameters of one pair of materials
     """
     fields: typing.ClassVar[tuple] = ('effective_modulus', 'effective_shear_modulus', 'kn', 'kt', 'restitution', 'friction', 'rolling_friction', 'tangential_damping', 'roughness', 'roughness_distribution', 'shadow')
-    roughness_distribution: str
-    shadow: str
     def __init__(self, **kwargs) -> None:
         """
         Keywords: any of `fields`; the others keep their defaults
@@ -181,6 +193,22 @@ class PairParams:
         """
     @roughness.setter
     def roughness(self, arg0: typing.SupportsFloat | typing.SupportsIndex) -> None:
+        ...
+    @property
+    def roughness_distribution(self) -> str:
+        """
+        Distribution of the roughness tilt. Default "normal".
+        """
+    @roughness_distribution.setter
+    def roughness_distribution(self, arg1: str) -> None:
+        ...
+    @property
+    def shadow(self) -> str:
+        """
+        Shadow effect at walls (docs/roughness.md). Default "reject".
+        """
+    @shadow.setter
+    def shadow(self, arg1: str) -> None:
         ...
     @property
     def tangential_damping(self) -> float:
