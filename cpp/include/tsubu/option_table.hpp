@@ -74,10 +74,10 @@ namespace option_detail {
 constexpr double kInf = std::numeric_limits<double>::infinity();
 constexpr unsigned kLaw = kMaterial | kPair;
 
-constexpr OptionDeclaration real(const char* name, unsigned scopes, const char* unit, double lo,
-                                 bool lo_open, double hi, bool hi_open, double value,
-                                 const char* text, const char* doc, const char* zero_means = "") {
-  OptionDeclaration d{name, scopes, OptionKind::Real, unit};
+// A number's declaration: its range, default, doc and what the core's 0 means.
+constexpr OptionDeclaration number(OptionDeclaration d, double lo, bool lo_open, double hi,
+                                   bool hi_open, double value, const char* text, const char* doc,
+                                   const char* zero_means) {
   d.minimum = lo;
   d.exclusive_minimum = lo_open;
   d.maximum = hi;
@@ -88,17 +88,18 @@ constexpr OptionDeclaration real(const char* name, unsigned scopes, const char* 
   d.zero_means = zero_means;
   return d;
 }
+constexpr OptionDeclaration real(const char* name, unsigned scopes, const char* unit, double lo,
+                                 bool lo_open, double hi, bool hi_open, double value,
+                                 const char* text, const char* doc, const char* zero_means = "") {
+  return number({name, scopes, OptionKind::Real, unit}, lo, lo_open, hi, hi_open, value, text, doc,
+                zero_means);
+}
 constexpr OptionDeclaration integer(const char* name, std::uint64_t lo, std::uint64_t hi,
                                     double value, const char* text, const char* doc,
                                     const char* zero_means = "") {
-  OptionDeclaration d{name, kRun, OptionKind::Integer, ""};
-  d.minimum = static_cast<double>(lo);
-  d.maximum = static_cast<double>(hi);
+  OptionDeclaration d = number({name, kRun, OptionKind::Integer, ""}, static_cast<double>(lo),
+                               false, static_cast<double>(hi), false, value, text, doc, zero_means);
   d.integer_maximum = hi;
-  d.default_value = value;
-  d.default_text = text;
-  d.doc = doc;
-  d.zero_means = zero_means;
   return d;
 }
 constexpr OptionDeclaration choice(const char* name, unsigned scopes, ChoiceNames names,
