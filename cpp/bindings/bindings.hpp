@@ -11,6 +11,7 @@
 #include <pybind11/pybind11.h>
 #include <pybind11/stl.h>
 
+#include "tsubu/option_table.hpp"
 #include "tsubu/simulation.hpp"
 
 namespace tsubu_py {
@@ -32,31 +33,26 @@ inline void check_n3(const Array& a, std::size_t n, const char* name) {
 // ---- enums as strings: one table each ------------------------------------------------------
 template <class E>
 struct Choices;
+// (the names are declared with the options, option_table.hpp)
 template <>
 struct Choices<tsubu::ScatterDistribution> {
   static constexpr const char* argument = "roughness_distribution";
-  static constexpr std::array<std::pair<const char*, tsubu::ScatterDistribution>, 2> names{
-      {{"normal", tsubu::ScatterDistribution::Normal}, {"uniform", tsubu::ScatterDistribution::Uniform}}};
+  static constexpr const auto& names = tsubu::kScatterDistributionNames;
 };
 template <>
 struct Choices<tsubu::ShadowRule> {
   static constexpr const char* argument = "shadow";
-  static constexpr std::array<std::pair<const char*, tsubu::ShadowRule>, 3> names{
-      {{"reject", tsubu::ShadowRule::Reject},
-       {"weighted", tsubu::ShadowRule::Weighted},
-       {"none", tsubu::ShadowRule::None}}};
+  static constexpr const auto& names = tsubu::kShadowRuleNames;
 };
 template <>
 struct Choices<tsubu::HistoryRule> {
   static constexpr const char* argument = "tangential_history";
-  static constexpr std::array<std::pair<const char*, tsubu::HistoryRule>, 2> names{
-      {{"rotate", tsubu::HistoryRule::Rotate}, {"literal", tsubu::HistoryRule::Literal}}};
+  static constexpr const auto& names = tsubu::kHistoryRuleNames;
 };
 template <>
 struct Choices<tsubu::SlipRule> {
   static constexpr const char* argument = "slip_rule";
-  static constexpr std::array<std::pair<const char*, tsubu::SlipRule>, 2> names{
-      {{"frozen", tsubu::SlipRule::Frozen}, {"truncate", tsubu::SlipRule::Truncate}}};
+  static constexpr const auto& names = tsubu::kSlipRuleNames;
 };
 
 // "'a', 'b' or 'c'"
@@ -91,6 +87,7 @@ py::tuple names() {
 }
 
 void register_materials(py::module_& m);
+void register_options(py::module_& m);
 void register_simulation(py::class_<tsubu::Simulation>& cls);
 void register_state(py::class_<tsubu::Simulation>& cls);
 

@@ -1,5 +1,5 @@
 // The pybind11 module tsubu._core: exception translation, the enum tables, then the classes
-// (register_materials.cpp, register_simulation.cpp, register_state.cpp).
+// (register_materials.cpp, register_options.cpp, register_simulation.cpp, register_state.cpp).
 #include "bindings.hpp"
 
 using namespace tsubu_py;
@@ -42,4 +42,5 @@ PYBIND11_MODULE(_core, m) {
   py::class_<tsubu::Simulation> sim(m, "Simulation");
   register_simulation(sim);
   register_state(sim);
+  register_options(m);  // after Simulation: validate_options takes one
 }

@@ -1,33 +1,50 @@
 // tsubu::Material and tsubu::PairParams as Python classes. Each field is bound once, here, and
 // listed in the class's `fields` attribute, which the Python layer reads instead of naming them
 // again.
+#include <deque>
+
 #include "bindings.hpp"
 
 namespace tsubu_py {
 
 namespace {
 
+// A field's doc: its declaration's (option_table.hpp), with the core's unit and range.
+const char* field_doc(const char* name) {
+  static std::deque<std::string> docs;  // pybind11 keeps the pointer
+  const tsubu::OptionDeclaration& d = tsubu::declaration_of(name);
+  const std::string unit = *d.core_unit ? "" : d.unit;  // (declared_range names a core unit)
+  std::string doc = d.doc;
+  if (!unit.empty()) doc += " [" + unit + "]";
+  if (d.kind == tsubu::OptionKind::Real) doc += " Must be " + tsubu::declared_range(d) + ".";
+  if (d.kind == tsubu::OptionKind::Choice) doc += std::string(" Default \"") + d.choices[0] + "\".";
+  docs.push_back(doc);
+  return docs.back().c_str();
+}
+
 // The fields a material and a pair share (the laws' parameter sets), on class `cls`.
 template <class C>
 void law_fields(py::class_<C>& cls, py::list& fields) {
-  auto number = [&](const char* name, auto member, const char* doc) {
-    cls.def_readwrite(name, member, doc);
+  auto number = [&](const char* name, auto member) {
+    cls.def_readwrite(name, member, field_doc(name));
     fields.append(name);
   };
-  number("kn", &C::kn, "normal stiffness [N/m]");
-  number("kt", &C::kt, "tangential stiffness [N/m]");
-  number("restitution", &C::restitution, "normal coefficient of restitution, (0, 1]");
-  number("friction", &C::friction, "Coulomb coefficient mu");
-  number("rolling_friction", &C::rolling_friction, "rolling friction coefficient mu_r");
-  number("tangential_damping", &C::tangential_damping, "eta_t / eta_n");
-  number("roughness", &C::roughness, "standard deviation of the scatter angle [rad]");
+  number("kn", &C::kn);
+  number("kt", &C::kt);
+  number("restitution", &C::restitution);
+  number("friction", &C::friction);
+  number("rolling_friction", &C::rolling_friction);
+  number("tangential_damping", &C::tangential_damping);
+  number("roughness", &C::roughness);
   cls.def_property(
       "roughness_distribution", [](const C& c) { return name_of(c.roughness_distribution); },
-      [](C& c, const std::string& v) { c.roughness_distribution = parse<tsubu::ScatterDistribution>(v); });
+      [](C& c, const std::string& v) { c.roughness_distribution = parse<tsubu::ScatterDistribution>(v); },
+      field_doc("roughness_distribution"));
   fields.append("roughness_distribution");
   cls.def_property(
       "shadow", [](const C& c) { return name_of(c.shadow); },
-      [](C& c, const std::string& v) { c.shadow = parse<tsubu::ShadowRule>(v); });
+      [](C& c, const std::string& v) { c.shadow = parse<tsubu::ShadowRule>(v); },
+      field_doc("shadow"));
   fields.append("shadow");
 }
 
@@ -73,13 +90,12 @@ void register_materials(py::module_& m) {
   py::class_<tsubu::Material> material(m, "Material", "One material (SI units, roughness in radians)");
   keywords_and_repr(material, "Material");
   py::list material_fields;
-  material.def_readwrite("density", &tsubu::Material::density, "kg/m^3");
-  material_fields.append("density");
-  material.def_readwrite("youngs_modulus", &tsubu::Material::youngs_modulus,
-                         "Young's modulus E [Pa]; 0: a linear (kn, kt) material");
-  material_fields.append("youngs_modulus");
-  material.def_readwrite("poisson_ratio", &tsubu::Material::poisson_ratio, "Poisson's ratio nu");
-  material_fields.append("poisson_ratio");
+  for (auto [name, member] : {std::pair{"density", &tsubu::Material::density},
+                              std::pair{"youngs_modulus", &tsubu::Material::youngs_modulus},
+                              std::pair{"poisson_ratio", &tsubu::Material::poisson_ratio}}) {
+    material.def_readwrite(name, member, field_doc(name));
+    material_fields.append(name);
+  }
   law_fields(material, material_fields);
   material.attr("fields") = py::tuple(material_fields);
   m.def("hertz_restitution", &tsubu::HertzDamping::restitution, py::arg("factor"), py::arg("clipped"),
@@ -96,10 +112,10 @@ void register_materials(py::module_& m) {
   keywords_and_repr(pair, "PairParams");
   py::list pair_fields;
   pair.def_readwrite("effective_modulus", &tsubu::PairParams::effective_modulus,
-                     "Hertz's E* [Pa]; 0: a linear pair");
+                     field_doc("effective_modulus"));
   pair_fields.append("effective_modulus");
   pair.def_readwrite("effective_shear_modulus", &tsubu::PairParams::effective_shear_modulus,
-                     "Mindlin's G* [Pa]");
+                     field_doc("effective_shear_modulus"));
   pair_fields.append("effective_shear_modulus");
   law_fields(pair, pair_fields);
   pair.attr("fields") = py::tuple(pair_fields);

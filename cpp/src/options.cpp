@@ -1,60 +1,111 @@
-// The checks of every option a user sets (options.hpp).
+// The checks of every option a user sets (options.hpp): each range and message comes from the
+// option's declaration (option_table.hpp), so that the C++ API, the bindings and the Python layer
+// refuse the same values with the same words.
 #include "tsubu/options.hpp"
 
 #include <cmath>
+#include <string>
 
 #include "check.hpp"
+#include "tsubu/option_table.hpp"
 
 namespace tsubu {
 
 using detail::fmt;
 using detail::require;
 
-void validate_material(const Material& m) {
-  require(m.density > 0 && std::isfinite(m.density), "density must be > 0, got " + fmt(m.density));
-  require(m.youngs_modulus >= 0 && std::isfinite(m.youngs_modulus),
-          "youngs_modulus must be > 0 (or 0 for a linear material), got " + fmt(m.youngs_modulus));
-  if (m.youngs_modulus > 0) {
-    require(m.poisson_ratio > -1 && m.poisson_ratio <= 0.5,
-            "poisson_ratio must be in (-1, 0.5], got " + fmt(m.poisson_ratio));
-  } else {
-    require(m.kn > 0 && std::isfinite(m.kn), "kn must be > 0, got " + fmt(m.kn));
-    require(m.kt >= 0 && std::isfinite(m.kt), "kt must be >= 0, got " + fmt(m.kt));
+std::string declared_range(const OptionDeclaration& d) {
+  const bool lo = std::isfinite(d.minimum), hi = std::isfinite(d.maximum);
+  const double s = d.scale;
+  std::string text;
+  if (lo && hi)
+    text = std::string("in ") + (d.exclusive_minimum ? "(" : "[") + fmt(d.minimum * s) + ", " +
+           fmt(d.maximum * s) + (d.exclusive_maximum ? ")" : "]");
+  else if (lo)
+    text = std::string("a finite number ") + (d.exclusive_minimum ? "> " : ">= ") + fmt(d.minimum * s);
+  else if (hi)
+    text = std::string("a finite number ") + (d.exclusive_maximum ? "< " : "<= ") + fmt(d.maximum * s);
+  else
+    text = "finite";
+  if (*d.core_unit) text += std::string(" ") + d.core_unit;
+  if (*d.zero_means) text += std::string(" (or 0 for ") + d.zero_means + ")";
+  return text;
+}
+
+void check_declared(const OptionDeclaration& d, double core_value, const char* prefix) {
+  if (*d.zero_means && core_value == 0) return;
+  require(in_declared_range(d, core_value), [&] {
+    if (d.kind == OptionKind::Integer)  // the bound it is beyond, as Python's checks say it
+      return std::string(prefix) + d.name + " must be " +
+             (core_value < d.minimum ? ">= " + std::to_string(static_cast<long long>(d.minimum))
+                                     : "<= " + std::to_string(d.integer_maximum)) +
+             ", got " + std::to_string(static_cast<long long>(core_value));
+    return std::string(prefix) + d.name + " must be " + declared_range(d) + ", got " +
+           fmt(core_value);
+  });
+}
+
+namespace {
+
+// The check of the option `name` (its declaration found at compile time) on `value`.
+#define TSUBU_CHECK(name, value, prefix)                                       \
+  do {                                                                         \
+    constexpr const OptionDeclaration& declaration = option_declaration(name); \
+    check_declared(declaration, static_cast<double>(value), prefix);           \
+  } while (0)
+
+// The fields a material and a pair share (each law's parameters).
+template <class P>
+void check_law_fields(const P& p, bool hertzian, const char* prefix) {
+  if (!hertzian) {
+    TSUBU_CHECK("kn", p.kn, prefix);
+    TSUBU_CHECK("kt", p.kt, prefix);
   }
-  require(m.restitution > 0 && m.restitution <= 1,
-          "restitution must be in (0, 1], got " + fmt(m.restitution));
-  require(m.friction >= 0 && std::isfinite(m.friction),
-          "friction must be >= 0, got " + fmt(m.friction));
-  require(m.rolling_friction >= 0 && std::isfinite(m.rolling_friction),
-          "rolling_friction must be >= 0, got " + fmt(m.rolling_friction));
-  require(m.tangential_damping >= 0 && std::isfinite(m.tangential_damping),
-          "tangential_damping must be >= 0, got " + fmt(m.tangential_damping));
-  require(m.roughness >= 0 && m.roughness < 0.5 * M_PI,
-          "roughness must be in [0, pi/2) radians, got " + fmt(m.roughness));
+  TSUBU_CHECK("restitution", p.restitution, prefix);
+  TSUBU_CHECK("friction", p.friction, prefix);
+  TSUBU_CHECK("rolling_friction", p.rolling_friction, prefix);
+  TSUBU_CHECK("tangential_damping", p.tangential_damping, prefix);
+  TSUBU_CHECK("roughness", p.roughness, prefix);
+  // A cross-option rule: a uniform draw spans +-sqrt(3) sigma, which must stay below 90 degrees.
+  require(p.roughness_distribution != ScatterDistribution::Uniform ||
+              std::sqrt(3.0) * p.roughness < 0.5 * M_PI,
+          [&] {
+            return std::string(prefix) +
+                   "roughness with a uniform distribution must be < 90/sqrt(3) degrees, got " +
+                   fmt(p.roughness * 180 / M_PI) + " degrees";
+          });
+}
+
+}  // namespace
+
+void validate_material(const Material& m) {
+  TSUBU_CHECK("density", m.density, "");
+  TSUBU_CHECK("youngs_modulus", m.youngs_modulus, "");
+  const bool hertzian = m.youngs_modulus > 0;
+  if (hertzian) TSUBU_CHECK("poisson_ratio", m.poisson_ratio, "");
+  check_law_fields(m, hertzian, "");
 }
 
 void validate_pair(const PairParams& p) {
-  if (HertzParams::used(p))
-    require(std::isfinite(p.effective_modulus) && p.effective_shear_modulus >= 0 &&
-                std::isfinite(p.effective_shear_modulus),
-            "pair moduli must be effective_modulus > 0, effective_shear_modulus >= 0");
-  else
-    require(p.kn > 0 && p.kt >= 0, "pair stiffnesses must be kn > 0, kt >= 0");
-  require(p.restitution > 0 && p.restitution <= 1, "pair restitution must be in (0, 1]");
-  require(p.friction >= 0 && p.rolling_friction >= 0 && p.tangential_damping >= 0,
-          "pair friction coefficients must be >= 0");
-  require(p.roughness >= 0 && p.roughness < 0.5 * M_PI, "pair roughness must be in [0, pi/2)");
-  require(p.roughness_distribution != ScatterDistribution::Uniform ||
-              std::sqrt(3.0) * p.roughness < 0.5 * M_PI,
-          "pair roughness with a uniform distribution must be < 90/sqrt(3) degrees, got " +
-              fmt(p.roughness * 180 / M_PI) + " degrees");
+  TSUBU_CHECK("effective_modulus", p.effective_modulus, "pair ");
+  const bool hertzian = HertzParams::used(p);
+  if (hertzian) TSUBU_CHECK("effective_shear_modulus", p.effective_shear_modulus, "pair ");
+  check_law_fields(p, hertzian, "pair ");
 }
 
 void validate_options(const Options& o) {
   require(o.gravity.allFinite(), "gravity is not finite");
-  require(o.max_overlap > 0, "max_overlap must be > 0");
+  TSUBU_CHECK("dt", o.dt, "");
+  TSUBU_CHECK("threads", o.threads, "");
+  TSUBU_CHECK("parallel_min", o.parallel_min, "");
+  TSUBU_CHECK("skin", o.skin, "");
+  TSUBU_CHECK("impact_speed", o.impact_speed, "");
+  TSUBU_CHECK("max_overlap", o.max_overlap, "");
+  TSUBU_CHECK("initial_overlap", o.initial_overlap, "");
   require(!(o.slip == SlipRule::Truncate && o.history == HistoryRule::Literal),
           "the truncate slip rule needs the rotate tangential history");
 }
+
+#undef TSUBU_CHECK
 
 }  // namespace tsubu

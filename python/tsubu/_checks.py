@@ -31,21 +31,34 @@ def _real(name: str, value) -> float:
 def positive(name: str, value, *, allow_zero: bool = False) -> float:
     """A finite real number > 0 (or >= 0 with ``allow_zero``), as a float; TypeError for a
     non-number, ValueError for a number out of range."""
-    v = _real(name, value)
-    if not math.isfinite(v) or v < 0 or (v == 0 and not allow_zero):
-        bound = ">= 0" if allow_zero else "> 0"
-        raise ValueError(f"{name} must be a finite number {bound}, got {value!r}")
-    return v
+    return bounded(name, value, 0.0, None, lo_open=not allow_zero, hi_open=False)
 
 
 def in_range(name: str, value, lo: float, hi: float, *, lo_open: bool, hi_open: bool) -> float:
     """A finite real number in the interval from ``lo`` to ``hi`` (each end open or closed), as a
     float; ValueError names the interval, e.g. "restitution must be in (0, 1], got 1.5"."""
+    return bounded(name, value, lo, hi, lo_open=lo_open, hi_open=hi_open)
+
+
+def bounded(name: str, value, lo: float | None, hi: float | None, *, lo_open: bool,
+            hi_open: bool) -> float:
+    """A finite real number within the bounds (None: unbounded on that side; each end open or
+    closed), as a float; TypeError for a non-number, ValueError naming the range: "restitution
+    must be in (0, 1], got 1.5", "density must be a finite number > 0, got 0.0"."""
     v = _real(name, value)
-    ok = math.isfinite(v) and (v > lo if lo_open else v >= lo) and (v < hi if hi_open else v <= hi)
+    ok = (math.isfinite(v) and (lo is None or (v > lo if lo_open else v >= lo))
+          and (hi is None or (v < hi if hi_open else v <= hi)))
     if not ok:
-        interval = ("(" if lo_open else "[") + f"{lo:g}, {hi:g}" + (")" if hi_open else "]")
-        raise ValueError(f"{name} must be in {interval}, got {value!r}")
+        if lo is not None and hi is not None:
+            interval = ("(" if lo_open else "[") + f"{lo:g}, {hi:g}" + (")" if hi_open else "]")
+            raise ValueError(f"{name} must be in {interval}, got {value!r}")
+        if lo is not None:
+            bound = (">" if lo_open else ">=") + f" {lo:g}"
+        elif hi is not None:
+            bound = ("<" if hi_open else "<=") + f" {hi:g}"
+        else:
+            raise ValueError(f"{name} must be finite, got {value!r}")
+        raise ValueError(f"{name} must be a finite number {bound}, got {value!r}")
     return v
 
 

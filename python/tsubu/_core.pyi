@@ -9,7 +9,7 @@ import collections.abc
 import numpy
 import numpy.typing
 import typing
-__all__: list[str] = ['InstabilityError', 'Material', 'PairParams', 'Simulation', 'available_memory', 'choices', 'compiled_law_count', 'hertz_damping_factor', 'hertz_restitution', 'openmp']
+__all__: list[str] = ['InstabilityError', 'Material', 'PairParams', 'Simulation', 'available_memory', 'choices', 'compiled_law_count', 'hertz_damping_factor', 'hertz_restitution', 'openmp', 'option_table', 'validate_material', 'validate_options', 'validate_pair']
 class InstabilityError(RuntimeError):
     pass
 class Material:
@@ -17,8 +17,6 @@ class Material:
     One material (SI units, roughness in radians)
     """
     fields: typing.ClassVar[tuple] = ('density', 'youngs_modulus', 'poisson_ratio', 'kn', 'kt', 'restitution', 'friction', 'rolling_friction', 'tangential_damping', 'roughness', 'roughness_distribution', 'shadow')
-    roughness_distribution: str
-    shadow: str
     def __init__(self, **kwargs) -> None:
         """
         Keywords: any of `fields`; the others keep their defaults
@@ -28,7 +26,7 @@ class Material:
     @property
     def density(self) -> float:
         """
-        kg/m^3
+        Mass density. [kg/m^3] Must be a finite number > 0.
         """
     @density.setter
     def density(self, arg0: typing.SupportsFloat | typing.SupportsIndex) -> None:
@@ -36,7 +34,7 @@ class Material:
     @property
     def friction(self) -> float:
         """
-        Coulomb coefficient mu
+        Coulomb friction coefficient (0: frictionless). Must be a finite number >= 0.
         """
     @friction.setter
     def friction(self, arg0: typing.SupportsFloat | typing.SupportsIndex) -> None:
@@ -44,7 +42,7 @@ class Material:
     @property
     def kn(self) -> float:
         """
-        normal stiffness [N/m]
+        Normal spring stiffness of the linear (Kelvin-Voigt) law. [N/m] Must be a finite number > 0.
         """
     @kn.setter
     def kn(self, arg0: typing.SupportsFloat | typing.SupportsIndex) -> None:
@@ -52,7 +50,7 @@ class Material:
     @property
     def kt(self) -> float:
         """
-        tangential stiffness [N/m]
+        Tangential spring stiffness of the linear law. [N/m] Must be a finite number >= 0.
         """
     @kt.setter
     def kt(self, arg0: typing.SupportsFloat | typing.SupportsIndex) -> None:
@@ -60,7 +58,7 @@ class Material:
     @property
     def poisson_ratio(self) -> float:
         """
-        Poisson's ratio nu
+        Poisson's ratio of a Hertzian material. Must be in (-1, 0.5].
         """
     @poisson_ratio.setter
     def poisson_ratio(self, arg0: typing.SupportsFloat | typing.SupportsIndex) -> None:
@@ -68,7 +66,7 @@ class Material:
     @property
     def restitution(self) -> float:
         """
-        normal coefficient of restitution, (0, 1]
+        Normal coefficient of restitution. Must be in (0, 1].
         """
     @restitution.setter
     def restitution(self, arg0: typing.SupportsFloat | typing.SupportsIndex) -> None:
@@ -76,7 +74,7 @@ class Material:
     @property
     def rolling_friction(self) -> float:
         """
-        rolling friction coefficient mu_r
+        Rolling friction coefficient. Must be a finite number >= 0.
         """
     @rolling_friction.setter
     def rolling_friction(self, arg0: typing.SupportsFloat | typing.SupportsIndex) -> None:
@@ -84,15 +82,31 @@ class Material:
     @property
     def roughness(self) -> float:
         """
-        standard deviation of the scatter angle [rad]
+        Standard deviation of the roughness scatter angle (docs/roughness.md). Must be in [0, 1.5708) radians.
         """
     @roughness.setter
     def roughness(self, arg0: typing.SupportsFloat | typing.SupportsIndex) -> None:
         ...
     @property
+    def roughness_distribution(self) -> str:
+        """
+        Distribution of the roughness tilt. Default "normal".
+        """
+    @roughness_distribution.setter
+    def roughness_distribution(self, arg1: str) -> None:
+        ...
+    @property
+    def shadow(self) -> str:
+        """
+        Shadow effect at walls (docs/roughness.md). Default "reject".
+        """
+    @shadow.setter
+    def shadow(self, arg1: str) -> None:
+        ...
+    @property
     def tangential_damping(self) -> float:
         """
-        eta_t / eta_n
+        Tangential dashpot as a fraction of the normal one. Must be a finite number >= 0.
         """
     @tangential_damping.setter
     def tangential_damping(self, arg0: typing.SupportsFloat | typing.SupportsIndex) -> None:
@@ -100,7 +114,7 @@ class Material:
     @property
     def youngs_modulus(self) -> float:
         """
-        Young's modulus E [Pa]; 0: a linear (kn, kt) material
+        Young's modulus E: makes the material Hertz-Mindlin (then kn, kt must not be given). [Pa] Must be a finite number > 0 (or 0 for a linear material).
         """
     @youngs_modulus.setter
     def youngs_modulus(self, arg0: typing.SupportsFloat | typing.SupportsIndex) -> None:
@@ -110,8 +124,6 @@ class PairParams:
     The contact parameters of one pair of materials
     """
     fields: typing.ClassVar[tuple] = ('effective_modulus', 'effective_shear_modulus', 'kn', 'kt', 'restitution', 'friction', 'rolling_friction', 'tangential_damping', 'roughness', 'roughness_distribution', 'shadow')
-    roughness_distribution: str
-    shadow: str
     def __init__(self, **kwargs) -> None:
         """
         Keywords: any of `fields`; the others keep their defaults
@@ -121,7 +133,7 @@ class PairParams:
     @property
     def effective_modulus(self) -> float:
         """
-        Hertz's E* [Pa]; 0: a linear pair
+        E* of a pair of Hertzian materials. [Pa] Must be a finite number > 0 (or 0 for a linear pair).
         """
     @effective_modulus.setter
     def effective_modulus(self, arg0: typing.SupportsFloat | typing.SupportsIndex) -> None:
@@ -129,7 +141,7 @@ class PairParams:
     @property
     def effective_shear_modulus(self) -> float:
         """
-        Mindlin's G* [Pa]
+        G* of a pair of Hertzian materials. [Pa] Must be a finite number >= 0.
         """
     @effective_shear_modulus.setter
     def effective_shear_modulus(self, arg0: typing.SupportsFloat | typing.SupportsIndex) -> None:
@@ -137,7 +149,7 @@ class PairParams:
     @property
     def friction(self) -> float:
         """
-        Coulomb coefficient mu
+        Coulomb friction coefficient (0: frictionless). Must be a finite number >= 0.
         """
     @friction.setter
     def friction(self, arg0: typing.SupportsFloat | typing.SupportsIndex) -> None:
@@ -145,7 +157,7 @@ class PairParams:
     @property
     def kn(self) -> float:
         """
-        normal stiffness [N/m]
+        Normal spring stiffness of the linear (Kelvin-Voigt) law. [N/m] Must be a finite number > 0.
         """
     @kn.setter
     def kn(self, arg0: typing.SupportsFloat | typing.SupportsIndex) -> None:
@@ -153,7 +165,7 @@ class PairParams:
     @property
     def kt(self) -> float:
         """
-        tangential stiffness [N/m]
+        Tangential spring stiffness of the linear law. [N/m] Must be a finite number >= 0.
         """
     @kt.setter
     def kt(self, arg0: typing.SupportsFloat | typing.SupportsIndex) -> None:
@@ -161,7 +173,7 @@ class PairParams:
     @property
     def restitution(self) -> float:
         """
-        normal coefficient of restitution, (0, 1]
+        Normal coefficient of restitution. Must be in (0, 1].
         """
     @restitution.setter
     def restitution(self, arg0: typing.SupportsFloat | typing.SupportsIndex) -> None:
@@ -169,7 +181,7 @@ class PairParams:
     @property
     def rolling_friction(self) -> float:
         """
-        rolling friction coefficient mu_r
+        Rolling friction coefficient. Must be a finite number >= 0.
         """
     @rolling_friction.setter
     def rolling_friction(self, arg0: typing.SupportsFloat | typing.SupportsIndex) -> None:
@@ -177,15 +189,31 @@ class PairParams:
     @property
     def roughness(self) -> float:
         """
-        standard deviation of the scatter angle [rad]
+        Standard deviation of the roughness scatter angle (docs/roughness.md). Must be in [0, 1.5708) radians.
         """
     @roughness.setter
     def roughness(self, arg0: typing.SupportsFloat | typing.SupportsIndex) -> None:
         ...
     @property
+    def roughness_distribution(self) -> str:
+        """
+        Distribution of the roughness tilt. Default "normal".
+        """
+    @roughness_distribution.setter
+    def roughness_distribution(self, arg1: str) -> None:
+        ...
+    @property
+    def shadow(self) -> str:
+        """
+        Shadow effect at walls (docs/roughness.md). Default "reject".
+        """
+    @shadow.setter
+    def shadow(self, arg1: str) -> None:
+        ...
+    @property
     def tangential_damping(self) -> float:
         """
-        eta_t / eta_n
+        Tangential dashpot as a fraction of the normal one. Must be a finite number >= 0.
         """
     @tangential_damping.setter
     def tangential_damping(self, arg0: typing.SupportsFloat | typing.SupportsIndex) -> None:
@@ -376,6 +404,22 @@ def hertz_damping_factor(restitution: typing.SupportsFloat | typing.SupportsInde
 def hertz_restitution(factor: typing.SupportsFloat | typing.SupportsIndex, clipped: bool) -> float:
     """
     The restitution of a Hertzian impact with dashpot eta_n = factor sqrt(S_n m*), the normal force clipped at zero or not (integrated, dimensionless)
+    """
+def option_table() -> tuple:
+    """
+    Every option's declaration (option_table.hpp), a dict each: name, scopes ('material', 'pair', 'run'), kind ('real', 'integer', 'flag', 'choice', 'vector'), unit, minimum, maximum (None: unbounded), exclusive_minimum, exclusive_maximum, zero_means (what the core's 0 means, or None), choices, default, default_text, doc, scale (core value = scale x value) and core_unit
+    """
+def validate_material(material: Material) -> None:
+    """
+    The core's check of a Material (ValueError naming the field and the value)
+    """
+def validate_options(simulation: Simulation) -> None:
+    """
+    The core's check of a Simulation's run options, as a run starts (ValueError naming the option and the value)
+    """
+def validate_pair(pair: PairParams) -> None:
+    """
+    The core's check of a PairParams (ValueError naming the field and the value)
     """
 choices: dict = {'roughness_distribution': ('normal', 'uniform'), 'shadow': ('reject', 'weighted', 'none'), 'tangential_history': ('rotate', 'literal'), 'slip_rule': ('frozen', 'truncate')}
 compiled_law_count: int = 28

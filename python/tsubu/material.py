@@ -5,7 +5,8 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field, fields
 
-from . import _checks, _core
+from . import _core, _options
+from ._options import DECLARATIONS
 
 
 @dataclass(frozen=True, eq=False)
@@ -94,18 +95,20 @@ class Material:
         ``sqrt(3) roughness`` reaches 90 degrees.
     """
 
-    density: float = 2500.0
+    # The defaults are the option declarations' (cpp/include/tsubu/option_table.hpp); kn, kt,
+    # youngs_modulus and poisson_ratio default to None, filled in by the law (__post_init__).
+    density: float = DECLARATIONS["density"].default
     kn: float | None = None
     kt: float | None = None
     youngs_modulus: float | None = None
     poisson_ratio: float | None = None
-    restitution: float = 0.5
-    friction: float = 0.5
-    rolling_friction: float = 0.0
-    tangential_damping: float = 0.0
-    roughness: float = 0.0
-    roughness_distribution: str = "normal"
-    shadow: str = "reject"
+    restitution: float = DECLARATIONS["restitution"].default
+    friction: float = DECLARATIONS["friction"].default
+    rolling_friction: float = DECLARATIONS["rolling_friction"].default
+    tangential_damping: float = DECLARATIONS["tangential_damping"].default
+    roughness: float = DECLARATIONS["roughness"].default
+    roughness_distribution: str = DECLARATIONS["roughness_distribution"].default
+    shadow: str = DECLARATIONS["shadow"].default
     name: str | None = field(default=None)
 
     def __post_init__(self) -> None:
@@ -123,17 +126,17 @@ class Material:
             if name == "kn" and value is None:
                 if hertz:
                     continue
-                value = 1.0e3
+                value = DECLARATIONS["kn"].default
             if name == "kt" and value is None:
                 if hertz:
                     continue
-                value = 2.0 / 7.0 * self.kn  # kn comes first, already checked
+                value = 2.0 / 7.0 * self.kn  # (the declared "2/7 kn"; kn comes first, checked)
             if name == "youngs_modulus" and value is None:
                 continue
             if name == "poisson_ratio" and value is None:
                 if not hertz:
                     continue
-                value = 0.3
+                value = DECLARATIONS["poisson_ratio"].default
             set_(self, name, _check_field(name, value))
         _check_uniform_range(self.roughness_distribution, self.roughness)
         if self.name is not None and not isinstance(self.name, str):
@@ -157,17 +160,9 @@ _PARAMETERS = tuple(f.name for f in fields(Material) if f.name != "name")
 
 
 def _check_field(name: str, value):
-    """One contact or bulk parameter in the Python API's units (roughness in degrees)."""
-    if name == "restitution":
-        return _checks.in_range(name, value, 0.0, 1.0, lo_open=True, hi_open=False)
-    if name == "roughness":
-        return _checks.in_range(name, value, 0.0, 90.0, lo_open=False, hi_open=True)
-    if name == "poisson_ratio":
-        return _checks.in_range(name, value, -1.0, 0.5, lo_open=True, hi_open=False)
-    if name in _core.choices:
-        return _checks.choice(name, value, _core.choices[name])
-    return _checks.positive(name, value, allow_zero=name not in (
-        "density", "kn", "youngs_modulus", "effective_modulus"))
+    """One contact or bulk parameter in the Python API's units (roughness in degrees), checked
+    against its declaration."""
+    return _options.check(name, value)
 
 
 def _check_uniform_range(distribution: str, roughness: float) -> None:
@@ -179,12 +174,12 @@ def _check_uniform_range(distribution: str, roughness: float) -> None:
 def _to_core(cls, values):
     """``cls`` (_core.Material or _core.PairParams) from a mapping of its fields in the Python
     API's units."""
-    return cls(**{n: math.radians(values[n]) if n == "roughness" else values[n] for n in cls.fields
-                  if n in values})
+    return cls(**{n: values[n] * DECLARATIONS[n].scale if DECLARATIONS[n].scale != 1 else values[n]
+                  for n in cls.fields if n in values})
 
 
 def _from_core(params) -> dict:
     """A _core.PairParams (or Material) as a dict of its fields in the Python API's units."""
     p = {n: getattr(params, n) for n in params.fields}
-    p["roughness"] = math.degrees(p["roughness"])
+    p["roughness"] = math.degrees(p["roughness"])  # the inverse of its declared scale, exactly
     return p

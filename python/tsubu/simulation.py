@@ -11,7 +11,7 @@ from pathlib import Path
 
 import numpy as np
 
-from . import _checks, _core, hooks
+from . import _checks, _core, _options, hooks
 from .material import Material, _check_field, _check_uniform_range, _from_core, _to_core
 
 
@@ -199,30 +199,25 @@ class Simulation:
         self.gravity = gravity
         self.dt = dt
         self.threads = threads
-        self._core.parallel_min = _checks.whole("parallel_min", parallel_min, maximum=2**31 - 1)
-        self._core.seed = _checks.whole("seed", seed, maximum=2**64 - 1)
+        # Each option's check follows its declaration (option_table.hpp, tsubu._options).
+        self._core.parallel_min = _options.check("parallel_min", parallel_min)
+        self._core.seed = _options.check("seed", seed)
         if skin is not None:
-            self._core.skin_option = _checks.positive("skin", skin)
-        _checks.choice("tangential_history", tangential_history, _core.choices["tangential_history"])
-        self._core.history_rule = tangential_history
-        _checks.choice("slip_rule", slip_rule, _core.choices["slip_rule"])
+            self._core.skin_option = _options.check("skin", skin)
+        self._core.history_rule = _options.check("tangential_history", tangential_history)
+        _options.check("slip_rule", slip_rule)
         if slip_rule == "truncate" and tangential_history != "rotate":
             raise ValueError("slip_rule='truncate' needs tangential_history='rotate', got "
                              f"{tangential_history!r}")
         self._core.slip_rule = slip_rule
-        _checks.choice("hertz_force", hertz_force, ("signed", "repulsive"))
-        self._core.repulsive = hertz_force == "repulsive"
+        self._core.repulsive = _options.check("hertz_force", hertz_force) == "repulsive"
         if impact_speed is not None:
-            self._core.impact_speed = _checks.positive("impact_speed", impact_speed)
+            self._core.impact_speed = _options.check("impact_speed", impact_speed)
         self._scene_materials: list[Material] = []
-        self._core.max_overlap = _checks.positive("max_overlap", max_overlap)
-        self._core.initial_overlap = _checks.positive("initial_overlap", initial_overlap, allow_zero=True)
-        if not isinstance(allow_unstable_dt, bool):
-            raise TypeError(f"allow_unstable_dt must be a bool, got {allow_unstable_dt!r}")
-        self._core.allow_unstable_dt = allow_unstable_dt
-        if not isinstance(rebuild_every_step, bool):
-            raise TypeError(f"rebuild_every_step must be a bool, got {rebuild_every_step!r}")
-        self._core.rebuild_every_step = rebuild_every_step
+        self._core.max_overlap = _options.check("max_overlap", max_overlap)
+        self._core.initial_overlap = _options.check("initial_overlap", initial_overlap)
+        self._core.allow_unstable_dt = _options.check("allow_unstable_dt", allow_unstable_dt)
+        self._core.rebuild_every_step = _options.check("rebuild_every_step", rebuild_every_step)
 
     # ---- options ---------------------------------------------------------------------------
     @property
@@ -233,7 +228,7 @@ class Simulation:
 
     @gravity.setter
     def gravity(self, value) -> None:
-        g = _checks.vec3("gravity", value)
+        g = _options.check("gravity", value)
         if self.size:
             _energies_fit("gravity", self.masses, self.radii, x=self.positions, g=g)
         self._core.gravity = g
@@ -246,7 +241,7 @@ class Simulation:
 
     @dt.setter
     def dt(self, value) -> None:
-        self._core.dt = 0.0 if value is None else _checks.positive("dt", value)
+        self._core.dt = 0.0 if value is None else _options.check("dt", value)
 
     @property
     def seed(self) -> int:
@@ -263,8 +258,7 @@ class Simulation:
 
     @threads.setter
     def threads(self, value) -> None:
-        self._core.threads = 0 if value is None else _checks.whole("threads", value, minimum=1,
-                                                                  maximum=MAX_THREADS)
+        self._core.threads = 0 if value is None else _options.check("threads", value)
 
     @property
     def parallel_min(self) -> int:
@@ -901,7 +895,7 @@ class Simulation:
 
         source = _checks.path("path", path)
         if threads is not None:
-            threads = _checks.whole("threads", threads, minimum=1, maximum=MAX_THREADS)
+            threads = _options.check("threads", threads)
         arrays, meta = checkpoint._decode(source)
         return checkpoint._restore(arrays, meta, threads)
 
@@ -1090,8 +1084,9 @@ class Simulation:
                 f"t = {self.time:.6g} s, step {self.step_count})")
 
 
-# Far more than any machine's cores: OpenMP would try to start every thread asked for.
-MAX_THREADS = 4096
+# Far more than any machine's cores: OpenMP would try to start every thread asked for (the
+# declared maximum of threads).
+MAX_THREADS = _options.DECLARATIONS["threads"].maximum
 
 
 def _steps_for(duration: float, dt: float) -> int:

@@ -1,0 +1,264 @@
+"""The scene format: the declarative spec ``SPEC`` of every table and key of a scene file, written
+in the schema language of :mod:`tsubu.scene.language`. The loader validates with it, and the JSON
+Schema and the key reference are generated from it (:mod:`tsubu.scene.reference`).
+"""
+
+from __future__ import annotations
+
+from .._options import DECLARATIONS, declared
+from .language import (ArrayOf, Boolean, Field, Integer, MapOf, Node, Number, NumberList, String,
+                       Table, Tagged, Vector, _NameList)
+
+
+# The version of the scene format (documented as tsubu.scene.FORMAT_VERSION).
+FORMAT_VERSION = 1
+
+
+# ---- the scene format --------------------------------------------------------------------------
+# Units, defaults and meanings are those of the Python API (tsubu.Material, tsubu.Simulation,
+# tsubu.fill, tsubu.insert, tsubu.output); the materials', pairs' and simulation's options are
+# their declarations (_option), the other ranges tsubu's own checks (tests/test_scene.py checks
+# that Material refuses what the spec refuses).
+
+POSITIVE = dict(minimum=0.0, exclusive_minimum=True)
+NON_NEGATIVE = dict(minimum=0.0)
+XYZ = "array of 3 numbers"
+
+
+def _option(name: str, doc: str | None = None, default: str | None = None) -> Field:
+    """The key of option ``name`` as its declaration says it (cpp/include/tsubu/option_table.hpp:
+    type, unit, range, default, doc); ``doc`` and ``default`` replace the declared text where a
+    scene file says more."""
+    d = DECLARATIONS[name]
+    if d.kind == "real":
+        bounds = {}
+        if d.minimum is not None:
+            bounds.update(minimum=d.minimum, exclusive_minimum=d.exclusive_minimum)
+        if d.maximum is not None:
+            bounds.update(maximum=d.maximum, exclusive_maximum=d.exclusive_maximum)
+        node: Node = Number(unit=d.unit, **bounds)
+    elif d.kind == "integer":
+        node = Integer(d.minimum, d.maximum)
+    elif d.kind == "flag":
+        node = Boolean()
+    elif d.kind == "choice":
+        node = String(tuple(d.choices))
+    else:
+        node = Vector(unit=d.unit)
+    return Field(node, d.doc if doc is None else doc,
+                 default=d.default_text if default is None else default, unit=d.unit)
+
+
+def _material_table() -> Table:
+    return Table({name: _option(name) for name in declared("material")},
+                 doc="A material: the fields of tsubu.Material (SI units; roughness in degrees). The "
+                     "table's name (materials.NAME) is how walls, particles and inserters refer to it.",
+                 exclusive=(("kn", "youngs_modulus"), ("kt", "youngs_modulus")), name="materials.NAME")
+
+
+def _region() -> Tagged:
+    return Tagged("shape", {
+        "box": Table({
+            "lower": Field(Vector(unit="m"), "Lower corner.", required=True, unit="m"),
+            "upper": Field(Vector(unit="m"), "Upper corner (each coordinate above lower's).",
+                           required=True, unit="m"),
+        }, doc="An axis-aligned box (tsubu.fill.Box)."),
+        "cylinder": Table({
+            "base": Field(Vector(unit="m"), "Centre of the bottom disc.", required=True, unit="m"),
+            "radius": Field(Number("m", **POSITIVE), "Radius.", required=True, unit="m"),
+            "height": Field(Number("m", **POSITIVE), "Height along the axis.", required=True, unit="m"),
+            "axis": Field(String(("x", "y", "z")), "Axis direction.", default='"z"'),
+        }, doc="A circular cylinder (tsubu.fill.Cylinder)."),
+    }, doc="A region of space: a box or a cylinder (tsubu.fill).", name="region")
+
+
+def _radius(doc, required=True, default=None):
+    return Field(Number("m", **POSITIVE), doc, required=required, default=default, unit="m")
+
+
+def _sizes() -> Tagged:
+    return Tagged("distribution", {
+        "monodisperse": Table({"radius": _radius("The radius.")}, doc="One radius."),
+        "uniform": Table({"min_radius": _radius("Smallest radius."),
+                          "max_radius": _radius("Largest radius.")},
+                         doc="Radii uniform between two bounds."),
+        "normal": Table({"mean_radius": _radius("Mean radius."),
+                         "std": Field(Number("m", **NON_NEGATIVE), "Standard deviation.", required=True,
+                                      unit="m"),
+                         "min_radius": _radius("Truncation below.", False, "none"),
+                         "max_radius": _radius("Truncation above.", False, "none")},
+                        doc="A truncated normal distribution of radii."),
+        "lognormal": Table({"median_radius": _radius("Median radius."),
+                            "sigma": Field(Number(**NON_NEGATIVE), "Standard deviation of ln r.",
+                                           required=True),
+                            "min_radius": _radius("Truncation below.", False, "none"),
+                            "max_radius": _radius("Truncation above.", False, "none")},
+                           doc="A (truncated) log-normal distribution of radii."),
+        "tabulated": Table({"radii": Field(NumberList(Number("m", **POSITIVE), 2),
+                                           "Radii of the table, increasing.", required=True, unit="m"),
+                            "fractions": Field(NumberList(Number(minimum=0.0, maximum=1.0), 2),
+                                               "Cumulative fraction finer than each radius, "
+                                               "non-decreasing, from 0 to 1.", required=True),
+                            "basis": Field(String(("number", "mass")), "Fractions by number or by mass.",
+                                           default='"number"')},
+                           doc="A tabulated particle-size distribution (cumulative, linear in radius "
+                               "between points)."),
+    }, doc="A size distribution of radii (tsubu.fill).", name="sizes")
+
+
+def _motion(what: str) -> dict:
+    return {
+        "velocity": Field(Vector(unit="m/s"), f"Initial velocity of {what}.", default="[0, 0, 0]",
+                          unit="m/s"),
+        "angular_velocity": Field(Vector(unit="rad/s"), f"Initial angular velocity of {what}.",
+                                  default="[0, 0, 0]", unit="rad/s"),
+    }
+
+
+def _every() -> dict:
+    return {
+        "every": Field(Integer(minimum=1), "Write every this many steps.", unit="steps"),
+        "interval": Field(Number("s", **POSITIVE), "Write every this much simulated time (rounded to "
+                                                   "whole steps, at least 1).", unit="s"),
+    }
+
+
+def _writer(name_default: str, doc: str, extra: dict | None = None) -> Table:
+    return Table({**_every(),
+                  "name": Field(String(), "Base name of the files.", default=f'"{name_default}"'),
+                  **(extra or {})}, doc=doc, one_of=(("every", "interval"),))
+
+
+def _build_spec() -> Table:
+    material_name = String()
+    simulation = Table({
+        "duration": Field(Number("s", **NON_NEGATIVE), "Simulated time to run.", required=True, unit="s"),
+        "gravity": _option("gravity"),
+        "dt": _option("dt", default="dt_fraction's"),
+        "dt_fraction": Field(Number(minimum=0.0, maximum=1.0, exclusive_minimum=True),
+                             "Time step as a fraction of the scene's shortest contact duration "
+                             "(Simulation.contact_duration(), with the spheres of the particles "
+                             "blocks and the smallest spheres of the inserters).",
+                             default="0.02 (tsubu's t_c/50)"),
+        "seed": _option("seed"),
+        "threads": _option("threads", "OpenMP threads (`tsubu run --threads` overrides it)."),
+        **{name: _option(name) for name in ("parallel_min", "skin", "tangential_history", "slip_rule",
+                                            "hertz_force", "impact_speed", "max_overlap",
+                                            "initial_overlap", "allow_unstable_dt",
+                                            "rebuild_every_step")},
+    }, doc="The simulation's options (tsubu.Simulation) and how long to run.",
+        exclusive=(("dt", "dt_fraction"),), name="simulation")
+
+    pair = Table({
+        "materials": Field(_NameList(), "The two materials' names.",
+                           required=True),
+        **{name: _option(name, default="mixed") for name in declared("pair")},
+    }, doc="A per-pair override of the mixed contact parameters (Simulation.set_pair).", name="pairs")
+
+    wall = Table({
+        "point": Field(Vector(unit="m"), "A point of the plane (and the centre of its rotation).",
+                       required=True, unit="m"),
+        "normal": Field(Vector(nonzero=True), "Normal, pointing to the side where spheres live.",
+                        required=True),
+        "material": Field(material_name, "The wall's material (a name from [materials]).", required=True),
+        "velocity": Field(Vector(unit="m/s"), "Translation velocity.", default="[0, 0, 0]", unit="m/s"),
+        "angular_velocity": Field(Vector(unit="rad/s"), "Angular velocity about point.",
+                                  default="[0, 0, 0]", unit="rad/s"),
+    }, doc="An infinite plane wall (Simulation.add_plane).", name="walls")
+
+    common = {"material": Field(material_name, "The spheres' material (a name from [materials]).",
+                                required=True)}
+    particles = Tagged("generator", {
+        "lattice": Table({
+            **common,
+            "region": Field(_region(), "Where the spheres go.", required=True),
+            "radius": _radius("The spheres' radius."),
+            "spacing": Field(Number("m", **POSITIVE), "Distance between neighbouring centres.",
+                             default="2 radius", unit="m"),
+            "kind": Field(String(("cubic", "hexagonal")), "Lattice type.", default='"cubic"'),
+            "jitter": Field(Number(minimum=0.0, maximum=1.0, exclusive_maximum=True),
+                            "Random displacement as a fraction of the gap.", default="0"),
+            "seed": Field(Integer(0, 2**64 - 1), "Seed of the jitter.", default="0"),
+            **_motion("every sphere"),
+        }, doc="Spheres on a lattice filling a region (tsubu.fill.lattice)."),
+        "random_packing": Table({
+            **common,
+            "region": Field(_region(), "Where the spheres go.", required=True),
+            "sizes": Field(_sizes(), "The size distribution.", required=True),
+            "count": Field(Integer(minimum=1), "Number of spheres."),
+            "solid_fraction": Field(Number(minimum=0.0, maximum=1.0, exclusive_minimum=True,
+                                           exclusive_maximum=True), "Target solid fraction of the region."),
+            "seed": Field(Integer(0, 2**64 - 1), "Seed of the positions and sizes.", default="0"),
+            "max_attempts": Field(Integer(minimum=1), "Attempts of random sequential addition.",
+                                  default="tsubu.fill's"),
+            **_motion("every sphere"),
+        }, doc="A random non-overlapping packing (tsubu.fill.random_packing).", one_of=(("count", "solid_fraction"),)),
+        "file": Table({
+            "material": Field(material_name, "The spheres' material. Without it, each sphere gets "
+                                             "the material the file names (an .npz of "
+                                             "tsubu.output.save_npz: its material and material_names "
+                                             "arrays), which must be one of [materials]."),
+            "path": Field(String(), "An .npz or .csv file written by tsubu.output.save_npz / save_csv "
+                                    "(relative to the scene file).", required=True),
+            "velocities": Field(Boolean(), "Take the velocities and angular velocities from the file "
+                                           "(false: at rest).", default="true"),
+        }, doc="Spheres read from a file of tsubu.output."),
+    }, doc="A block of spheres added before the run.", name="particles")
+
+    inserter = Table({
+        "material": Field(material_name, "The inserted spheres' material.", required=True),
+        "region": Field(_region(), "Where spheres are inserted.", required=True),
+        "rate": Field(Number(**POSITIVE), "Spheres per second (basis \"number\") or kg per second "
+                                          "(basis \"mass\").", required=True, unit="1/s or kg/s"),
+        "sizes": Field(_sizes(), "The size distribution.", required=True),
+        "basis": Field(String(("number", "mass")), "What rate and total count.", default='"number"'),
+        **_motion("the inserted spheres"),
+        "start": Field(Number("s", **NON_NEGATIVE), "Simulated time of the first insertion.", default="0",
+                       unit="s"),
+        "stop": Field(Number("s", **NON_NEGATIVE), "Simulated time after which nothing is inserted.",
+                      default="never", unit="s"),
+        "total": Field(Number(**POSITIVE), "Count (basis \"number\") or mass [kg] after which it stops.",
+                       default="unlimited"),
+        "interval": Field(Number("s", **POSITIVE), "Time between insertion events.",
+                          default="chosen from the region and velocity", unit="s"),
+        "seed": Field(Integer(0, 2**64 - 1), "Seed of the positions and sizes.", default="0"),
+    }, doc="Pours spheres during the run (Simulation.add_inserter).", name="inserters")
+
+    output = Table({
+        "directory": Field(String(), "Where output and checkpoints go (relative to the scene file; "
+                                     "`tsubu run --output` overrides it).", default='"output"'),
+        "vtk": Field(_writer("particles", "VTK XML files for ParaView (tsubu.output.VTKOutput).", {
+            "contacts": Field(Boolean(), "Write the contact network.", default="true"),
+            "walls": Field(Boolean(), "Write the walls.", default="true"),
+        }), "ParaView output."),
+        "npz": Field(_writer("state", "numpy .npz files (tsubu.output.NpzOutput)."), "npz dumps."),
+        "csv": Field(_writer("state", "CSV tables (tsubu.output.CSVOutput), with an index "
+                                      "NAME_frames.csv of steps and times.", {
+            "contacts": Field(Boolean(), "Also write the contact network as NAME_contacts_STEP.csv.",
+                              default="true"),
+        }), "CSV dumps."),
+    }, doc="What to write during the run.", name="output")
+
+    checkpoint = Table({
+        "path": Field(String(), "Checkpoint file (relative to the output directory).",
+                      default='"checkpoint.tsubu"'),
+        **{k: Field(f.node, f.doc.replace("Write", "Checkpoint"), unit=f.unit) for k, f in _every().items()},
+        "keep": Field(Integer(minimum=1), "How many periodic checkpoints to keep.", default="3"),
+    }, doc="Checkpoints (Simulation.save), for `tsubu resume`. Without every or interval, only "
+           "the end of the run and a Ctrl-C write one.", exclusive=(("every", "interval"),),
+        name="checkpoint")
+
+    return Table({
+        "simulation": Field(simulation, "Options and duration.", required=True),
+        "materials": Field(MapOf(_material_table(), "Materials by name."), "Materials by name.",
+                           required=True),
+        "pairs": Field(ArrayOf(pair, "Pair overrides."), "Pair overrides."),
+        "walls": Field(ArrayOf(wall, "Plane walls."), "Plane walls."),
+        "particles": Field(ArrayOf(particles, "Blocks of spheres."), "Blocks of spheres."),
+        "inserters": Field(ArrayOf(inserter, "Inserters."), "Inserters."),
+        "output": Field(output, "Output."),
+        "checkpoint": Field(checkpoint, "Checkpoints."),
+    }, doc="A tsubu scene file (docs/scene-format.md).", name="scene")
+
+
+SPEC = _build_spec()
