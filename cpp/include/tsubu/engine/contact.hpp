@@ -176,11 +176,11 @@ struct Contacts {
 
   // A wall contact's approach along n at the contact point x_i - c n (lever c = r - delta/2,
   // set in `ci`): returns v_n; sets the tangential velocity (1.12) where the law has one.
-  TSUBU_INLINE static double wall_approach(const ContactView& c, const Plane& P, Index i, const Vec3& n,
+  TSUBU_INLINE static double wall_approach(const ContactView& c, const Wall& P, Index i, const Vec3& n,
                               double delta, double& ci, Vec3& vt) {
     ci = contact_lever(c.r[i], delta);
     Vec3 vrel = vec3(c.v, i);
-    if (c.moving) vrel -= P.velocity_at(Plane::contact_point(vec3(c.x, i), ci, n));
+    if (c.moving) vrel -= P.velocity_at(Wall::contact_point(vec3(c.x, i), ci, n));
     const double vn = vrel.dot(n);
     if constexpr (F::kTangential) vt = vrel - vn * n - (ci * vec3(c.w, i)).cross(n);
     return vn;
@@ -190,7 +190,7 @@ struct Contacts {
   // `excess` as pair().
   static double wall(const ContactView& c, Index e, double& excess) {
     const Index i = c.wown[e];
-    const Plane& P = c.planes[c.wall[e]];
+    const Wall& P = c.planes[c.wall[e]];
     const PairParams& params = (*c.table)(c.mat[i], P.material);
     const Vec3 xi_pos = vec3(c.x, i);
     const double ri = c.r[i], dt = c.dt;
@@ -199,7 +199,7 @@ struct Contacts {
     if constexpr (F::kRough) {
       if (params.roughness > 0) {
         Vec3 vw = vec3(c.v, i);
-        if (c.moving) vw -= P.velocity_at(Plane::contact_point(xi_pos, ri, n));
+        if (c.moving) vw -= P.velocity_at(Wall::contact_point(xi_pos, ri, n));
         const ContactStream stream{c.seed, std::uint64_t(c.ids[i]),
                                    ContactStream::kWallTag + std::uint64_t(c.wall[e]), c.step};
         Rough<Law>::wall(params, P, xi_pos, ri, vw, ContactScale{c.m[i], ri, c.speed}, c.wtouch[e],

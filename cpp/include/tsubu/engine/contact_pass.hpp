@@ -88,7 +88,7 @@ struct ContactPass {
     const Index wlo = part_start(wall_owner, nw, t, nt), whi = part_start(wall_owner, nw, t + 1, nt);
     const Index wcount = compact(wlo, whi, wact + wlo, [&](Index p) {
       const Index e = c.wnear[p];
-      const Plane& P = c.planes[c.wall[e]];
+      const Wall& P = c.planes[c.wall[e]];
       const double gap = P.distance(vec3(c.x, c.wown[e])) - c.r[c.wown[e]];
       return (gap < 0) | (c.wtouch[e] != 0);
     });

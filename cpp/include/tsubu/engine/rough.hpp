@@ -8,7 +8,7 @@
 #include <type_traits>
 
 #include "../contact/roughness.hpp"
-#include "../walls/plane.hpp"
+#include "../walls/walls.hpp"
 #include "common.hpp"
 
 namespace tsubu::detail {
@@ -66,7 +66,7 @@ struct Rough {
   // offset h (n'.(y - p) = h), placed at first touch so that the sphere penetrates it by at
   // most one step of approach. On entry n is the wall normal and delta the real overlap; on
   // exit they are the facet's normal and overlap (<= 0: no contact).
-  static void wall(const PairParams& p, const Plane& P, const Vec3& x, double r, const Vec3& vrel,
+  static void wall(const PairParams& p, const Wall& P, const Vec3& x, double r, const Vec3& vrel,
                    const ContactScale& scale, bool active, double* st, const ContactStream& stream, double dt,
                    Vec3& n, double& delta) {
     if (!active) {

@@ -71,7 +71,7 @@ struct ContactView {
   double* diss;
   std::uint8_t* loaded;
   Index* wact;  // scratch: the near-wall entries in contact
-  const Plane* planes;
+  const Wall* planes;
   bool moving;  // a wall moves: wall contacts take its velocity
   const PairTable* table;
   const PairParams* same;  // the parameters of every pair when all spheres share a material

@@ -13,6 +13,11 @@
 
 namespace tsubu {
 
+// The wall kind the contact pass evaluates (ContactView::planes). Planes are the one kind today;
+// a second kind (a triangle mesh) makes the pass dispatch on the kind of a near-wall entry here
+// (docs/architecture.md, "Add a wall kind").
+using Wall = Plane;
+
 class Walls {
  public:
   int count() const { return static_cast<int>(planes_.size()); }
