@@ -112,23 +112,22 @@ struct ContactLaw {
   }
   // What the tangential spring with history xi (history_width values) holds; 0 without one.
   static double tangential_energy(const PairParams& p, const double* xi) {
-    if constexpr (has_history) {
-      double q[Tangential::kLaneParams];
-      Tangential::pack(p, q);
-      return Tangential::elastic_energy(q, xi);
-    }
-    (void)p, (void)xi;
-    return 0;
+    return with_tangential(p, [xi](const double* q) { return Tangential::elastic_energy(q, xi); });
   }
   // The tangential spring's stiffness for a stored history (the energy audit's power); 0
   // without one.
   static double tangential_stiffness(const PairParams& p, const double* xi) {
+    return with_tangential(p, [xi](const double* q) { return Tangential::history_stiffness(q, xi); });
+  }
+  // f(the tangential law's packed parameters of the pair), or 0 for a law without a spring.
+  template <class F>
+  static double with_tangential(const PairParams& p, F&& f) {
     if constexpr (has_history) {
       double q[Tangential::kLaneParams];
       Tangential::pack(p, q);
-      return Tangential::history_stiffness(q, xi);
+      return f(static_cast<const double*>(q));
     }
-    (void)p, (void)xi;
+    (void)p, (void)f;
     return 0;
   }
   // Whether a pair's parameters give it a tangential force under this law.

@@ -35,6 +35,7 @@ struct NoTangential {
   struct History {};
   static void pack(const FrictionParams&, double*) {}
   static double elastic_energy(const double*, const double*) { return 0; }
+  static double history_stiffness(const double*, const double*) { return 0; }
 };
 
 // What every law with a tangential spring shares: three lane parameters (kt, mu, eta_t/eta_n)
