@@ -65,13 +65,4 @@ struct Plane {
   }
 };
 
-// How a wall entry's contact state is found again after a rebuild: by wall, and, for walls made
-// of many elements (a triangle mesh), by element, so that a contact sliding across elements can
-// carry its history. A plane is one element.
-struct WallKey {
-  int wall;
-  int element;
-  bool operator==(const WallKey& o) const { return wall == o.wall && element == o.element; }
-};
-
 }  // namespace tsubu
