@@ -75,7 +75,7 @@ void Writer::section(const std::string& name, const Writer& inner) {
 }
 
 void Reader::fail(const std::string& what) const {
-  throw InvalidArgument("checkpoint: " + where_ + ": " + what);
+  throw InvalidArgument("checkpoint: " + (where_.empty() ? "" : "section " + where_ + ": ") + what);
 }
 
 std::uint64_t Reader::open(Type type, const std::string& name, std::size_t size) {
@@ -148,7 +148,7 @@ std::string Reader::bytes(const std::string& name) {
 
 Reader Reader::section(const std::string& name) {
   const std::uint64_t n = open(Type::Section, name, 1);
-  Reader inner(*data_, at_, at_ + n, where_ + "/" + name);
+  Reader inner(*data_, at_, at_ + n, where_.empty() ? name : where_ + "/" + name);
   at_ += n;
   return inner;
 }

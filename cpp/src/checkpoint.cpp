@@ -331,7 +331,7 @@ Simulation Simulation::load(std::istream& in) {
     refuse(std::string(data.size() - kHeaderSize < length ? "truncated" : "extended") + ": the header says " +
            std::to_string(length) + " bytes of data, the stream has " + std::to_string(data.size() - kHeaderSize));
   const std::string body = data.substr(kHeaderSize);
-  archive::Reader top(body, "checkpoint");
+  archive::Reader top(body);
 
   archive::Reader options = top.section("options");
   Options opt;

@@ -44,9 +44,9 @@ class Writer {
 
 class Reader {
  public:
-  // Reads the records in `data` (kept by reference: it must outlive the Reader); `where` names
-  // the stream in messages.
-  Reader(const std::string& data, std::string where) : Reader(data, 0, data.size(), std::move(where)) {}
+  // Reads the records in `data` (kept by reference: it must outlive the Reader and its
+  // sections' Readers). Messages name the section path ("materials/material").
+  explicit Reader(const std::string& data) : Reader(data, 0, data.size(), "") {}
 
   double real(const std::string& name);
   std::int64_t integer(const std::string& name);
@@ -62,7 +62,7 @@ class Reader {
   bool next_is(const std::string& name) const;
   // Throws unless every record was read.
   void finish() const;
-  // Throws an InvalidArgument: "checkpoint: <where>: <what>".
+  // Throws an InvalidArgument: "checkpoint: section <path>: <what>".
   [[noreturn]] void fail(const std::string& what) const;
 
  private:
