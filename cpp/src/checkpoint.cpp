@@ -301,7 +301,12 @@ void Simulation::save(std::ostream& out) const {
   section("particles", [&](archive::Writer& w) { particles_.save(w); });
   section("walls", [&](archive::Writer& w) { walls_.save(w); });
   section("pair_contacts", [&](archive::Writer& w) { contact_state(false).save(w); });
-  section("wall_contacts", [&](archive::Writer& w) { contact_state(true).save(w); });
+  section("wall_contacts", [&](archive::Writer& w) {
+    const ContactState c = contact_state(true);
+    c.save(w);
+    // The element of each wall contact (a plane has one: 0), for the wall kinds made of many.
+    w.integers("element", std::vector<std::int64_t>(c.owner.size(), 0));
+  });
   section("run", [&](archive::Writer& w) { run_state().save(w); });
   out.write(kCheckpointMagic, kMagicSize);
   put_le(out, kCheckpointVersion, 4);
@@ -378,6 +383,11 @@ Simulation Simulation::load(std::istream& in) {
   for (int w = 0; w < 2; ++w) {
     archive::Reader r = top.section(names[w]);
     contacts[w].restore(r);
+    if (w == 1) {
+      const std::vector<std::int64_t> element = r.integers("element", contacts[w].owner.size());
+      for (std::int64_t e : element)
+        if (e != 0) r.fail("a contact with wall element " + std::to_string(e) + " (planes have one: 0)");
+    }
     r.finish();
   }
   s.set_contact_state(contacts[0], contacts[1]);

@@ -182,15 +182,14 @@ class Simulation : private detail::RunHooks {
   // The stream: 8 bytes kCheckpointMagic, the format version (4 bytes, little-endian), the
   // length of what follows (8 bytes), then the parts' sections (archive.hpp). load() refuses a
   // stream of another magic or version, a truncated one and inconsistent contents with an
-  // InvalidArgument that says which; it builds nothing it returns from a refused stream.
+  // InvalidArgument that says which (and returns no Simulation).
   static constexpr std::uint32_t kCheckpointVersion = 2;
   static constexpr char kCheckpointMagic[9] = "\x89TSUBUc\n";
   void save(std::ostream& out) const;
   static Simulation load(std::istream& in);
 
-  // The pieces the format-1 reader (tsubu's Python layer) restores one by one, and which
-  // save() and load() write and read as sections.
-  // What a checkpoint needs beyond the public setters: the counters and energy bookkeeping of
+  // The pieces save() and load() write and read as sections, which the format-1 reader (tsubu's
+  // Python layer) restores one by one. What a checkpoint needs beyond the public setters: the counters and energy bookkeeping of
   // the run, each sphere's dissipated energy, and the state of every touching contact keyed by
   // ids. Restored onto a Simulation set up with the same materials, pair parameters, options,
   // spheres (in id order) and walls, a run continues bit for bit as the saved one would have:
