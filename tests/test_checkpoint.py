@@ -261,3 +261,55 @@ def test_ctrl_c_writes_a_checkpoint_that_continues_the_run(tmp_path):
     assert_same_bits(sim, resumed)
     whole = box_scene("rough").run(steps=done + 300)
     assert_same_bits(whole, resumed.run(steps=300))
+
+
+# ---- format 1 files and the core's bytes (issue 25, item 4) ----------------------------------
+
+DATA = os.path.join(os.path.dirname(__file__), "data")
+
+
+def _v1_tools():
+    sys.path.insert(0, DATA)
+    try:
+        import make_checkpoint_v1
+    finally:
+        sys.path.remove(DATA)
+    import json
+    with open(os.path.join(DATA, "checkpoint_v1.json")) as f:
+        return make_checkpoint_v1, json.load(f)
+
+
+def test_a_format_1_file_still_loads_and_runs_on_as_it_did():
+    """tests/data/checkpoint_v1.tsubu was written by tsubu's format 1 (tests/data/
+    make_checkpoint_v1.py); loaded now and run on, it gives the numbers recorded then."""
+    maker, expected = _v1_tools()
+    path = os.path.join(DATA, "checkpoint_v1.tsubu")
+    with open(path, "rb") as f:
+        assert struct.unpack_from("<I", f.read(12), len(MAGIC))[0] == 1
+    sim = tsubu.Simulation.load(path)
+    assert maker.numbers(sim) == expected["at_save"]
+    assert [m.name for m in sim.materials] == ["bead", "heavy", "wall"]
+    assert len(sim.inserters) == 1 and sim.metadata == {"made_by": "tests/data/make_checkpoint_v1.py"}
+    sim.run(steps=expected["run_steps_after_load"])
+    assert maker.numbers(sim) == expected["after_run"]
+
+
+def test_a_format_1_file_saved_again_as_format_2_runs_on_the_same(tmp_path):
+    maker, expected = _v1_tools()
+    old = tsubu.Simulation.load(os.path.join(DATA, "checkpoint_v1.tsubu"))
+    old.save(tmp_path / "v2.tsubu")
+    assert struct.unpack_from("<I", (tmp_path / "v2.tsubu").read_bytes(), len(MAGIC))[0] == FORMAT_VERSION == 2
+    new = tsubu.Simulation.load(tmp_path / "v2.tsubu", threads=2)
+    assert_same_bits(old, new)
+    new.run(steps=expected["run_steps_after_load"])
+    assert maker.numbers(new) == expected["after_run"]
+
+
+def test_inconsistent_core_bytes_under_a_good_checksum_are_refused(tmp_path, saved):
+    """A payload whose checksum matches but whose core part is cut short (a bug, or a forged
+    file) is refused as inconsistent, naming the record that ran past the end."""
+    from tsubu import checkpoint
+    payload = saved[52:]
+    refused(tmp_path, checkpoint._frame(payload[:-100]), "inconsistent checkpoint contents.*truncated")
+    (n,) = struct.unpack_from("<Q", payload)
+    refused(tmp_path, checkpoint._frame(struct.pack("<Q", n + 10**6) + payload[8:]), "JSON section")

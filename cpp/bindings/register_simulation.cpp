@@ -55,6 +55,7 @@ void register_simulation(py::class_<Sim>& cls) {
   using namespace pybind11::literals;
   cls.def(py::init<>())
       .def("add_material", &Sim::add_material, "material"_a)
+      .def_property_readonly("material_count", &Sim::material_count)
       .def("set_pair_parameters", &Sim::set_pair_parameters, "a"_a, "b"_a, "params"_a)
       .def("pair_parameters", &Sim::pair_parameters, "a"_a, "b"_a)
       .def("reserve", &Sim::reserve, "count"_a)

@@ -1,4 +1,6 @@
 // tsubu::Simulation's state, in id order, as numpy arrays; energy, contacts and diagnostics.
+#include <sstream>
+
 #include "bindings.hpp"
 
 namespace tsubu_py {
@@ -184,6 +186,20 @@ void register_state(py::class_<Sim>& cls) {
            [](Sim& s, const py::dict& pairs, const py::dict& walls) {
              s.set_contact_state(contact_state_from(pairs), contact_state_from(walls));
            })
+      .def("save_bytes",
+           [](const Sim& s) {
+             std::ostringstream out;
+             s.save(out);
+             return py::bytes(out.str());
+           },
+           "The core's checkpoint of the whole scene (Simulation::save), as bytes")
+      .def_static(
+          "load_bytes",
+          [](const py::bytes& data) {
+            std::istringstream in{std::string(data)};
+            return Sim::load(in);
+          },
+          "data"_a, "A Simulation from save_bytes()'s bytes (ValueError for bad ones)")
       .def("dissipated", &n1<double, &Sim::get_dissipated>)
       .def("set_dissipated",
            [](Sim& s, const Array& a) {

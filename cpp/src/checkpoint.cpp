@@ -1,6 +1,12 @@
 // The state a checkpoint holds beyond the public setters (simulation.hpp, "checkpoints").
 #include <algorithm>
 #include <cmath>
+#include <cstring>
+#include <istream>
+#include <iterator>
+#include <ostream>
+#include <stdexcept>
+#include <type_traits>
 #include <string>
 
 #include "tsubu/simulation.hpp"
@@ -137,6 +143,262 @@ void Simulation::set_contact_state(const ContactState& pairs, const ContactState
             "spheres " + std::to_string(pairs.owner[e]) + " and " + std::to_string(b) + " are not near");
     put(contacts_.pairs, pairs, e, static_cast<Index>(q - lists_.near_partner.data()));
   }
+}
+
+// ---- the parts' sections ------------------------------------------------------------------------
+
+namespace {
+
+// The parameters a material and a pair share (the laws' sets), by name: reals, and the two
+// choices as integers.
+template <class C, class F, class G>
+void law_fields(C& c, F&& real, G&& choice) {
+  real("kn", c.kn);
+  real("kt", c.kt);
+  real("restitution", c.restitution);
+  real("friction", c.friction);
+  real("rolling_friction", c.rolling_friction);
+  real("tangential_damping", c.tangential_damping);
+  real("roughness", c.roughness);
+  choice("roughness_distribution", c.roughness_distribution, 1);
+  choice("shadow", c.shadow, 2);
+}
+
+template <class C>
+void save_law_fields(archive::Writer& w, const C& c) {
+  law_fields(c, [&](const char* name, double v) { w.real(name, v); },
+             [&](const char* name, auto v, int) { w.integer(name, static_cast<int>(v)); });
+}
+
+template <class C>
+void restore_law_fields(archive::Reader& r, C& c) {
+  law_fields(c, [&](const char* name, double& v) { v = r.real(name); },
+             [&](const char* name, auto& v, int last) {
+               const std::int64_t k = r.integer(name);
+               if (k < 0 || k > last) r.fail(std::string(name) + ": no choice " + std::to_string(k));
+               v = static_cast<std::remove_reference_t<decltype(v)>>(k);
+             });
+}
+
+}  // namespace
+
+void save(archive::Writer& w, const Material& m) {
+  w.real("density", m.density);
+  w.real("youngs_modulus", m.youngs_modulus);
+  w.real("poisson_ratio", m.poisson_ratio);
+  save_law_fields(w, m);
+}
+
+void restore(archive::Reader& r, Material& m) {
+  m.density = r.real("density");
+  m.youngs_modulus = r.real("youngs_modulus");
+  m.poisson_ratio = r.real("poisson_ratio");
+  restore_law_fields(r, m);
+}
+
+void save(archive::Writer& w, const PairParams& p) {
+  w.real("effective_modulus", p.effective_modulus);
+  w.real("effective_shear_modulus", p.effective_shear_modulus);
+  save_law_fields(w, p);
+}
+
+void restore(archive::Reader& r, PairParams& p) {
+  p.effective_modulus = r.real("effective_modulus");
+  p.effective_shear_modulus = r.real("effective_shear_modulus");
+  restore_law_fields(r, p);
+}
+
+void Simulation::RunState::save(archive::Writer& w) const {
+  w.integer("step", step);
+  w.real("time", time);
+  w.integer("ran", ran);
+  w.real("speed_fixed", speed_fixed);
+  const Energy& e = energy_ref;
+  w.reals("energy_ref", {e.translational, e.rotational, e.gravitational, e.elastic, e.dissipated,
+                         e.step_correction});
+  w.integer("energy_ref_valid", energy_ref_valid);
+  w.integer("energy_ref_step", energy_ref_step);
+  w.vec3("energy_ref_gravity", energy_ref_gravity);
+}
+
+void Simulation::RunState::restore(archive::Reader& r) {
+  step = static_cast<long>(r.integer("step"));
+  time = r.real("time");
+  ran = r.integer("ran") != 0;
+  speed_fixed = r.real("speed_fixed");
+  const std::vector<double> e = r.reals("energy_ref", 6);
+  energy_ref = {e[0], e[1], e[2], e[3], e[4], e[5]};
+  energy_ref_valid = r.integer("energy_ref_valid") != 0;
+  energy_ref_step = static_cast<long>(r.integer("energy_ref_step"));
+  energy_ref_gravity = r.vec3("energy_ref_gravity");
+}
+
+void Simulation::ContactState::save(archive::Writer& w) const {
+  w.integers("owner", std::vector<std::int64_t>(owner.begin(), owner.end()));
+  w.integers("partner", std::vector<std::int64_t>(partner.begin(), partner.end()));
+  w.integers("widths", std::vector<std::int64_t>(widths.begin(), widths.end()));
+  for (std::size_t k = 0; k < EntryStore::kFields; ++k) w.reals("values" + std::to_string(k), values[k]);
+}
+
+void Simulation::ContactState::restore(archive::Reader& r) {
+  const std::vector<std::int64_t> o = r.integers("owner");
+  const std::vector<std::int64_t> p = r.integers("partner", o.size());
+  const std::vector<std::int64_t> wd = r.integers("widths", EntryStore::kFields);
+  owner.assign(o.begin(), o.end());
+  partner.assign(p.begin(), p.end());
+  for (std::size_t k = 0; k < EntryStore::kFields; ++k) {
+    if (wd[k] < 0 || wd[k] > 64) r.fail("contact array " + std::to_string(k) + ": a width of " + std::to_string(wd[k]));
+    widths[k] = static_cast<int>(wd[k]);
+    values[k] = r.reals("values" + std::to_string(k), o.size() * static_cast<std::size_t>(wd[k]));
+  }
+}
+
+// ---- the whole scene -------------------------------------------------------------------------
+
+namespace {
+
+void put_le(std::ostream& out, std::uint64_t v, int bytes) {
+  char b[8];
+  for (int k = 0; k < bytes; ++k) b[k] = static_cast<char>((v >> (8 * k)) & 0xff);
+  out.write(b, bytes);
+}
+
+std::uint64_t get_le(const std::string& s, std::size_t at, int bytes) {
+  std::uint64_t v = 0;
+  for (int k = 0; k < bytes; ++k) v |= std::uint64_t(static_cast<unsigned char>(s[at + k])) << (8 * k);
+  return v;
+}
+
+constexpr std::size_t kMagicSize = 8, kHeaderSize = kMagicSize + 4 + 8;
+
+}  // namespace
+
+void Simulation::save(std::ostream& out) const {
+  archive::Writer body;
+  auto section = [&](const char* name, auto&& write) {
+    archive::Writer w;
+    write(w);
+    body.section(name, w);
+  };
+  section("options", [&](archive::Writer& w) { opt_.save(w); });
+  section("materials", [&](archive::Writer& w) {
+    w.integer("count", material_count());
+    for (const Material& m : materials_) {
+      archive::Writer one;
+      tsubu::save(one, m);
+      w.section("material", one);
+    }
+  });
+  section("pair_overrides", [&](archive::Writer& w) {
+    w.integer("count", static_cast<std::int64_t>(overrides_.size()));
+    for (std::size_t k = 0; k < overrides_.size(); ++k) {
+      w.integers("materials", {overrides_key_[k][0], overrides_key_[k][1]});
+      archive::Writer one;
+      tsubu::save(one, overrides_[k]);
+      w.section("parameters", one);
+    }
+  });
+  section("particles", [&](archive::Writer& w) { particles_.save(w); });
+  section("walls", [&](archive::Writer& w) { walls_.save(w); });
+  section("pair_contacts", [&](archive::Writer& w) { contact_state(false).save(w); });
+  section("wall_contacts", [&](archive::Writer& w) {
+    const ContactState c = contact_state(true);
+    c.save(w);
+    // The element of each wall contact (a plane has one: 0), for the wall kinds made of many.
+    w.integers("element", std::vector<std::int64_t>(c.owner.size(), 0));
+  });
+  section("run", [&](archive::Writer& w) { run_state().save(w); });
+  out.write(kCheckpointMagic, kMagicSize);
+  put_le(out, kCheckpointVersion, 4);
+  put_le(out, body.data().size(), 8);
+  out.write(body.data().data(), static_cast<std::streamsize>(body.data().size()));
+  if (!out) throw std::runtime_error("checkpoint: the stream could not be written");
+}
+
+Simulation Simulation::load(std::istream& in) {
+  const std::string data((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  auto refuse = [](const std::string& what) { throw InvalidArgument("checkpoint: " + what); };
+  if (data.size() < kMagicSize || data.compare(0, kMagicSize, kCheckpointMagic, kMagicSize) != 0) {
+    if (data.size() < kMagicSize && std::string(kCheckpointMagic, kMagicSize).compare(0, data.size(), data) == 0)
+      refuse("truncated: " + std::to_string(data.size()) + " bytes, shorter than the header");
+    refuse("not a tsubu checkpoint (the stream does not start with its signature)");
+  }
+  if (data.size() < kHeaderSize)
+    refuse("truncated: " + std::to_string(data.size()) + " bytes, shorter than the header");
+  const std::uint64_t version = get_le(data, kMagicSize, 4), length = get_le(data, kMagicSize + 4, 8);
+  if (version > kCheckpointVersion)
+    refuse("format version " + std::to_string(version) + " was written by a newer tsubu; this one reads " +
+           std::to_string(kCheckpointVersion));
+  if (version != kCheckpointVersion)
+    refuse("format version " + std::to_string(version) + " is not read by the C++ core (format 1 "
+           "files are read by tsubu's Python layer)");
+  if (data.size() - kHeaderSize != length)
+    refuse(std::string(data.size() - kHeaderSize < length ? "truncated" : "extended") + ": the header says " +
+           std::to_string(length) + " bytes of data, the stream has " + std::to_string(data.size() - kHeaderSize));
+  const std::string body = data.substr(kHeaderSize);
+  archive::Reader top(body);
+
+  archive::Reader options = top.section("options");
+  Options opt;
+  opt.restore(options);
+  options.finish();
+  Simulation s(opt);
+
+  archive::Reader materials = top.section("materials");
+  const std::int64_t nm = materials.integer("count");
+  if (nm < 0 || nm > (1 << 20)) materials.fail("a material count of " + std::to_string(nm));
+  for (std::int64_t k = 0; k < nm; ++k) {
+    archive::Reader one = materials.section("material");
+    Material m;
+    restore(one, m);
+    one.finish();
+    s.add_material(m);
+  }
+  materials.finish();
+
+  archive::Reader pairs = top.section("pair_overrides");
+  const std::int64_t np = pairs.integer("count");
+  if (np < 0 || np > nm * nm) pairs.fail("a pair override count of " + std::to_string(np));
+  for (std::int64_t k = 0; k < np; ++k) {
+    const std::vector<std::int64_t> ab = pairs.integers("materials", 2);
+    if (ab[0] < 0 || ab[0] >= nm || ab[1] < 0 || ab[1] >= nm) pairs.fail("an override names no material");
+    archive::Reader one = pairs.section("parameters");
+    PairParams p;
+    restore(one, p);
+    one.finish();
+    s.set_pair_parameters(static_cast<int>(ab[0]), static_cast<int>(ab[1]), p);
+  }
+  pairs.finish();
+
+  archive::Reader particles = top.section("particles");
+  s.particles_.restore(particles, s.materials_);
+  particles.finish();
+
+  archive::Reader walls = top.section("walls");
+  s.walls_.restore(walls, s.material_count());
+  walls.finish();
+
+  ContactState contacts[2];
+  const char* names[2] = {"pair_contacts", "wall_contacts"};
+  for (int w = 0; w < 2; ++w) {
+    archive::Reader r = top.section(names[w]);
+    contacts[w].restore(r);
+    if (w == 1) {
+      const std::vector<std::int64_t> element = r.integers("element", contacts[w].owner.size());
+      for (std::int64_t e : element)
+        if (e != 0) r.fail("a contact with wall element " + std::to_string(e) + " (planes have one: 0)");
+    }
+    r.finish();
+  }
+  s.set_contact_state(contacts[0], contacts[1]);
+
+  archive::Reader run = top.section("run");
+  RunState state;
+  state.restore(run);
+  run.finish();
+  s.set_run_state(state);
+  top.finish();
+  return s;
 }
 
 }  // namespace tsubu

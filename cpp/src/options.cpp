@@ -4,6 +4,8 @@
 #include "tsubu/options.hpp"
 
 #include <cmath>
+#include <cstdint>
+#include <limits>
 #include <string>
 
 #include "check.hpp"
@@ -107,5 +109,53 @@ void validate_options(const Options& o) {
 }
 
 #undef TSUBU_CHECK
+
+// ---- checkpoints ------------------------------------------------------------------------------
+
+void Options::save(archive::Writer& w) const {
+  w.vec3("gravity", gravity);
+  w.real("dt", dt);
+  w.integer("threads", threads);
+  w.integer("parallel_min", parallel_min);
+  w.real("skin", skin);
+  w.integer("history", static_cast<int>(history));
+  w.integer("slip", static_cast<int>(slip));
+  w.real("max_overlap", max_overlap);
+  w.real("initial_overlap", initial_overlap);
+  w.integer("allow_unstable_dt", allow_unstable_dt);
+  w.integer("rebuild_every_step", rebuild_every_step);
+  w.integer("seed", static_cast<std::int64_t>(seed));  // two's complement: the same 64 bits back
+  w.integer("repulsive", repulsive);
+  w.real("impact_speed", impact_speed);
+}
+
+void Options::restore(archive::Reader& r) {
+  auto flag = [&](const char* name) {
+    const std::int64_t v = r.integer(name);
+    if (v != 0 && v != 1) r.fail(std::string(name) + " must be 0 or 1, got " + std::to_string(v));
+    return v == 1;
+  };
+  auto in = [&](const char* name, std::int64_t lo, std::int64_t hi) {
+    const std::int64_t v = r.integer(name);
+    if (v < lo || v > hi)
+      r.fail(std::string(name) + " must be in [" + std::to_string(lo) + ", " + std::to_string(hi) +
+             "], got " + std::to_string(v));
+    return v;
+  };
+  gravity = r.vec3("gravity");
+  dt = r.real("dt");
+  threads = static_cast<int>(in("threads", 0, 1 << 20));
+  parallel_min = static_cast<int>(in("parallel_min", 0, std::numeric_limits<int>::max()));
+  skin = r.real("skin");
+  history = static_cast<HistoryRule>(in("history", 0, 1));
+  slip = static_cast<SlipRule>(in("slip", 0, 1));
+  max_overlap = r.real("max_overlap");
+  initial_overlap = r.real("initial_overlap");
+  allow_unstable_dt = flag("allow_unstable_dt");
+  rebuild_every_step = flag("rebuild_every_step");
+  seed = static_cast<std::uint64_t>(r.integer("seed"));
+  repulsive = flag("repulsive");
+  impact_speed = r.real("impact_speed");
+}
 
 }  // namespace tsubu

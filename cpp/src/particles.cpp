@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <limits>
 #include <string>
 
@@ -86,6 +87,52 @@ double Particles::radius_sum() const {
 
 std::size_t Particles::bytes() const {
   return s_.bytes() + index_of_.capacity() * sizeof(Index);
+}
+
+// ---- checkpoints ------------------------------------------------------------------------------
+
+void Particles::save(archive::Writer& w) const {
+  const std::size_t n = n_;
+  std::vector<double> x(3 * n), v(3 * n), spin(3 * n), radius(n), dissipated(n);
+  std::vector<std::int64_t> material(n);
+  gather(s_.x.data(), x.data());
+  gather(s_.v.data(), v.data());
+  gather(s_.w.data(), spin.data());
+  gather_scalar(s_.radius, radius.data());
+  gather_scalar(s_.dissipated, dissipated.data());
+  gather_scalar(s_.material, material.data());
+  w.integer("count", static_cast<std::int64_t>(n));
+  w.reals("position", x);
+  w.reals("velocity", v);
+  w.reals("angular_velocity", spin);
+  w.reals("radius", radius);
+  w.integers("material", material);
+  w.reals("dissipated", dissipated);
+}
+
+void Particles::restore(archive::Reader& r, const std::vector<Material>& table) {
+  if (n_ != 0) r.fail("spheres can only be restored into a scene without spheres");
+  const std::int64_t count = r.integer("count");
+  if (count < 0) r.fail("a negative sphere count");
+  const std::size_t n = static_cast<std::size_t>(count);
+  const std::vector<double> x = r.reals("position", 3 * n), v = r.reals("velocity", 3 * n),
+                            spin = r.reals("angular_velocity", 3 * n), radius = r.reals("radius", n);
+  const std::vector<std::int64_t> material = r.integers("material", n);
+  const std::vector<double> dissipated = r.reals("dissipated", n);
+  std::vector<int> materials(n);
+  for (std::size_t k = 0; k < n; ++k) {
+    for (int c = 0; c < 3; ++c)
+      if (!std::isfinite(x[3 * k + c]) || !std::isfinite(v[3 * k + c]) || !std::isfinite(spin[3 * k + c]))
+        r.fail("sphere " + std::to_string(k) + ": a position, velocity or spin is not finite");
+    if (!(radius[k] > 0) || !std::isfinite(radius[k]) || !std::isfinite(dissipated[k]))
+      r.fail("sphere " + std::to_string(k) + ": a radius <= 0 or a value that is not finite");
+    if (material[k] < 0 || material[k] >= static_cast<std::int64_t>(table.size()))
+      r.fail("sphere " + std::to_string(k) + " names material " + std::to_string(material[k]) +
+             "; the scene has " + std::to_string(table.size()));
+    materials[k] = static_cast<int>(material[k]);
+  }
+  add(n, x.data(), radius.data(), materials.data(), v.data(), spin.data(), table);
+  for (std::size_t k = 0; k < n; ++k) s_.dissipated[k] = dissipated[s_.id[k]];
 }
 
 }  // namespace tsubu

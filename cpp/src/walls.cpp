@@ -1,6 +1,9 @@
 #include "tsubu/walls/walls.hpp"
 
 #include <algorithm>
+#include <cmath>
+#include <cstdint>
+#include <string>
 
 namespace tsubu {
 
@@ -52,6 +55,52 @@ bool Walls::moved_beyond(double moved, double skin) const {
 
 std::size_t Walls::bytes() const {
   return planes_.capacity() * sizeof(Plane) + (point_ref_.capacity() + normal_ref_.capacity()) * sizeof(Vec3);
+}
+
+// ---- checkpoints ------------------------------------------------------------------------------
+
+void Walls::save(archive::Writer& w) const {
+  const std::size_t n = planes_.size();
+  std::vector<double> point, normal, velocity, spin;
+  std::vector<std::int64_t> material;
+  for (const Plane& p : planes_) {
+    point.insert(point.end(), p.point.data(), p.point.data() + 3);
+    normal.insert(normal.end(), p.normal.data(), p.normal.data() + 3);
+    velocity.insert(velocity.end(), p.velocity.data(), p.velocity.data() + 3);
+    spin.insert(spin.end(), p.angular_velocity.data(), p.angular_velocity.data() + 3);
+    material.push_back(p.material);
+  }
+  w.integer("planes", static_cast<std::int64_t>(n));
+  w.reals("point", point);
+  w.reals("normal", normal);
+  w.reals("velocity", velocity);
+  w.reals("angular_velocity", spin);
+  w.integers("material", material);
+}
+
+void Walls::restore(archive::Reader& r, int materials) {
+  if (!planes_.empty()) r.fail("walls can only be restored into a scene without walls");
+  const std::int64_t count = r.integer("planes");
+  if (count < 0) r.fail("a negative wall count");
+  const std::size_t n = static_cast<std::size_t>(count);
+  const std::vector<double> point = r.reals("point", 3 * n), normal = r.reals("normal", 3 * n),
+                            velocity = r.reals("velocity", 3 * n), spin = r.reals("angular_velocity", 3 * n);
+  const std::vector<std::int64_t> material = r.integers("material", n);
+  for (std::size_t k = 0; k < n; ++k) {
+    Plane p;
+    p.point = Vec3(point[3 * k], point[3 * k + 1], point[3 * k + 2]);
+    p.normal = Vec3(normal[3 * k], normal[3 * k + 1], normal[3 * k + 2]);
+    p.velocity = Vec3(velocity[3 * k], velocity[3 * k + 1], velocity[3 * k + 2]);
+    p.angular_velocity = Vec3(spin[3 * k], spin[3 * k + 1], spin[3 * k + 2]);
+    if (!p.point.allFinite() || !p.normal.allFinite() || !p.velocity.allFinite() ||
+        !p.angular_velocity.allFinite() || std::abs(p.normal.norm() - 1) >= 1e-12)
+      r.fail("wall " + std::to_string(k) + ": a finite point, unit normal and motion expected");
+    if (material[k] < 0 || material[k] >= materials)
+      r.fail("wall " + std::to_string(k) + " names material " + std::to_string(material[k]) +
+             "; the scene has " + std::to_string(materials));
+    p.material = static_cast<int>(material[k]);
+    add(p);
+  }
 }
 
 }  // namespace tsubu

@@ -224,6 +224,11 @@ class Simulation:
     rebuild_every_step: bool
     repulsive: bool
     slip_rule: str
+    @staticmethod
+    def load_bytes(data: bytes) -> Simulation:
+        """
+        A Simulation from save_bytes()'s bytes (ValueError for bad ones)
+        """
     def __init__(self) -> None:
         ...
     def add_material(self, material: Material) -> int:
@@ -284,6 +289,10 @@ class Simulation:
         ...
     def run_state(self) -> dict:
         ...
+    def save_bytes(self) -> bytes:
+        """
+        The core's checkpoint of the whole scene (Simulation::save), as bytes
+        """
     def set_angular_velocities(self, arg0: typing.Annotated[numpy.typing.ArrayLike, numpy.float64]) -> None:
         ...
     def set_contact_state(self, arg0: dict, arg1: dict) -> None:
@@ -338,6 +347,9 @@ class Simulation:
         ...
     @initial_overlap.setter
     def initial_overlap(self, arg1: typing.SupportsFloat | typing.SupportsIndex) -> None:
+        ...
+    @property
+    def material_count(self) -> int:
         ...
     @property
     def max_overlap(self) -> float:

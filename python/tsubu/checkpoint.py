@@ -6,7 +6,10 @@ A file is a fixed header followed by a payload::
     version  4 bytes   format version, little-endian unsigned
     length   8 bytes   payload length in bytes, little-endian unsigned
     sha256  32 bytes   SHA-256 of the payload
-    payload            a numpy .npz archive (no pickles): the arrays, and ``meta.json``
+    payload            format 2: 8 bytes (little-endian) n, n bytes of JSON (what only the
+                       Python layer knows: material names, inserters, metadata), then the
+                       core's own checkpoint (``Simulation::save`` in C++, docs/checkpoints.md)
+                       format 1: a numpy .npz archive (read by ``tsubu._checkpoint_v1``)
 
 A file is refused whole, before anything is built from it, when the magic, the length or the
 checksum do not match, or when its version is newer than this tsubu reads.
@@ -21,14 +24,11 @@ from __future__ import annotations
 
 import dataclasses
 import hashlib
-import io
 import json
 import os
 import struct
 import tempfile
 from pathlib import Path
-
-import numpy as np
 
 from . import _core
 
@@ -38,13 +38,9 @@ __all__ = ["CheckpointError", "FORMAT_VERSION", "MAGIC", "write_atomically", "sy
 #: mangled by a newline conversion, is refused at once).
 MAGIC = b"\x89TSUBU\r\n"
 #: The format version this tsubu writes (an int); files with a newer one are refused.
-FORMAT_VERSION = 1
+FORMAT_VERSION = 2
 _HEADER = struct.Struct("<8sIQ32s")
-
-# The engine options a checkpoint keeps, as the constructor's arguments.
-_OPTIONS = ("gravity", "dt", "threads", "seed", "skin", "tangential_history", "slip_rule",
-            "hertz_force", "impact_speed", "max_overlap", "initial_overlap", "allow_unstable_dt",
-            "rebuild_every_step", "parallel_min")
+_LENGTH = struct.Struct("<Q")
 
 
 class CheckpointError(ValueError):
@@ -90,18 +86,13 @@ def sync_folder(folder) -> None:
         os.close(dir_fd)
 
 
-def _encode(arrays: dict, meta: dict) -> bytes:
-    """The file's bytes for these arrays and this JSON-able metadata."""
-    buffer = io.BytesIO()
-    text = json.dumps(meta, sort_keys=True, allow_nan=True).encode()
-    np.savez(buffer, **arrays, **{"meta.json": np.frombuffer(text, dtype=np.uint8)})
-    payload = buffer.getvalue()
+def _frame(payload: bytes) -> bytes:
     return _HEADER.pack(MAGIC, FORMAT_VERSION, len(payload), hashlib.sha256(payload).digest()) + payload
 
 
-def _decode(path: Path) -> tuple[dict, dict]:
-    """The arrays and the metadata of a checkpoint file (CheckpointError if it is not a whole,
-    intact checkpoint this tsubu can read)."""
+def _read(path: Path) -> tuple[int, bytes]:
+    """The format version and the payload of a checkpoint file (CheckpointError if it is not a
+    whole, intact checkpoint this tsubu can read)."""
     path = Path(path)
     with open(path, "rb") as f:
         data = f.read()
@@ -123,65 +114,7 @@ def _decode(path: Path) -> tuple[dict, dict]:
     if hashlib.sha256(payload).digest() != digest:
         raise CheckpointError(f"{path}: corrupted checkpoint: its SHA-256 checksum does not match "
                               "its contents")
-    try:
-        with np.load(io.BytesIO(payload), allow_pickle=False) as z:
-            arrays = {k: z[k] for k in z.files}
-        meta = json.loads(arrays.pop("meta.json").tobytes().decode())
-    except Exception as e:  # intact bytes that are not our layout: a bug or a forged file
-        raise CheckpointError(f"{path}: unreadable checkpoint contents ({e})") from None
-    return arrays, meta
-
-
-def _options(sim) -> dict:
-    c = sim._core
-    zero_is_none = lambda v: None if v == 0 else v  # noqa: E731
-    return {"gravity": list(c.gravity), "dt": zero_is_none(c.dt), "threads": zero_is_none(c.threads),
-            "seed": int(c.seed), "skin": zero_is_none(c.skin_option),
-            "tangential_history": c.history_rule, "slip_rule": c.slip_rule,
-            "hertz_force": "repulsive" if c.repulsive else "signed",
-            "impact_speed": zero_is_none(c.impact_speed), "max_overlap": c.max_overlap,
-            "initial_overlap": c.initial_overlap, "allow_unstable_dt": c.allow_unstable_dt,
-            "rebuild_every_step": c.rebuild_every_step, "parallel_min": c.parallel_min}
-
-
-def _state_of(sim, metadata: dict | None) -> tuple[dict, dict]:
-    """The arrays and metadata that describe ``sim`` completely."""
-    core = sim._core
-    arrays = {
-        "positions": core.positions(), "velocities": core.velocities(),
-        "angular_velocities": core.angular_velocities(), "radii": core.radii(),
-        "material_ids": np.asarray(core.materials(), dtype=np.int64),
-        "dissipated": core.dissipated(),
-    }
-    widths = {}
-    for kind in ("pair", "wall"):
-        state = core.contact_state(kind == "wall")
-        arrays[f"{kind}_owner"] = state["owner"]
-        arrays[f"{kind}_partner"] = state["partner"]
-        for k, values in enumerate(state["values"]):
-            arrays[f"{kind}_values{k}"] = values
-        widths[kind] = list(state["widths"])
-    walls = []
-    for w in range(core.plane_count):
-        p = core.plane(w)
-        walls.append({k: (list(v) if k != "material" else int(v)) for k, v in p.items()})
-    overrides = []
-    for (a, b), params in sim._pair_overrides.items():
-        overrides.append({"a": a, "b": b, "params": {f: getattr(params, f) for f in params.fields}})
-    scene = [sim._material_index[id(m)] for m in sim._scene_materials]
-    meta = {
-        "format": "tsubu checkpoint", "tsubu_version": _version(),
-        "options": _options(sim),
-        "materials": [dataclasses.asdict(m) for m in sim._materials],
-        "scene_materials": scene,
-        "pair_overrides": overrides,
-        "walls": walls,
-        "run_state": core.run_state(),
-        "contact_widths": widths,
-        "inserters": [{"config": ins._config(sim), "state": ins._state()} for ins in sim._inserters],
-        "metadata": {} if metadata is None else metadata,
-    }
-    return arrays, meta
+    return version, payload
 
 
 def _version() -> str:
@@ -189,47 +122,54 @@ def _version() -> str:
     return __version__
 
 
-def _restore(arrays: dict, meta: dict, threads=None):
-    """A new Simulation in the state ``arrays`` and ``meta`` describe."""
+def encode(sim, metadata: dict) -> bytes:
+    """The checkpoint file's bytes for ``sim`` (format 2): the core's own bytes, and beside them
+    what only the Python layer knows, as JSON."""
+    # (An inserter's config may register its material: the materials and the core's bytes after.)
+    inserters = [{"config": ins._config(sim), "state": ins._state()} for ins in sim._inserters]
+    meta = {
+        "format": "tsubu checkpoint", "tsubu_version": _version(),
+        "materials": [dataclasses.asdict(m) for m in sim._materials],
+        "scene_materials": [sim._material_index[id(m)] for m in sim._scene_materials],
+        "inserters": inserters,
+        "metadata": metadata,
+    }
+    text = json.dumps(meta, sort_keys=True, allow_nan=True).encode()
+    return _frame(_LENGTH.pack(len(text)) + text + sim._core.save_bytes())
+
+
+def load(path, threads=None):
+    """A new Simulation from the checkpoint file at ``path`` (any format this tsubu reads)."""
+    version, payload = _read(path)
+    if version == 1:
+        from . import _checkpoint_v1
+        return _checkpoint_v1.load(payload, path, threads)
+    return _restore(payload, path, threads)
+
+
+def _restore(payload: bytes, path, threads=None):
+    """A new Simulation from a format-2 payload."""
     from .material import Material
     from .simulation import Simulation
 
     try:
-        options = dict(meta["options"])
-        if threads is not None:
-            options["threads"] = threads
-        sim = Simulation(**options)
-        core = sim._core
-        scene = set(meta["scene_materials"])
+        if len(payload) < _LENGTH.size:
+            raise CheckpointError("no JSON section")
+        (n,) = _LENGTH.unpack_from(payload)
+        if n > len(payload) - _LENGTH.size:
+            raise CheckpointError(f"the JSON section's length {n} runs past the end")
+        meta = json.loads(payload[_LENGTH.size:_LENGTH.size + n].decode())
+        core = _core.Simulation.load_bytes(payload[_LENGTH.size + n:])
+        sim = Simulation()
+        sim._core = core
+        if len(meta["materials"]) != core.material_count:
+            raise CheckpointError(f"{len(meta['materials'])} materials in the JSON section, "
+                                  f"{core.material_count} in the core's")
         for index, fields in enumerate(meta["materials"]):
-            got = sim._material(Material(**fields), f"materials[{index}]", scene=index in scene)
-            if got != index:
-                raise CheckpointError(f"material {index} registered as {got}")
-        for o in meta["pair_overrides"]:
-            params = _core.PairParams()
-            for f, v in o["params"].items():
-                setattr(params, f, v)
-            core.set_pair_parameters(o["a"], o["b"], params)
-            sim._pair_overrides[(o["a"], o["b"])] = params
-        n = len(arrays["radii"])
-        if n:
-            core.add_spheres(arrays["positions"], arrays["radii"],
-                             arrays["material_ids"].astype(np.intc), arrays["velocities"],
-                             arrays["angular_velocities"])
-            core.set_dissipated(arrays["dissipated"])
-        for w in meta["walls"]:
-            index = core.add_plane(w["point"], w["normal"], w["material"], w["velocity"],
-                                   w["angular_velocity"])
-            core.set_plane_state(index, w["point"], w["normal"], w["velocity"],
-                                 w["angular_velocity"], w["material"])
-        state = {}
-        for kind in ("pair", "wall"):
-            state[kind] = {
-                "owner": arrays[f"{kind}_owner"], "partner": arrays[f"{kind}_partner"],
-                "values": [arrays[f"{kind}_values{k}"] for k in range(len(meta["contact_widths"][kind]))],
-                "widths": meta["contact_widths"][kind]}
-        core.set_contact_state(state["pair"], state["wall"])
-        core.set_run_state(meta["run_state"])
+            m = Material(**fields)
+            sim._material_index[id(m)] = index
+            sim._materials.append(m)
+        sim._scene_materials = [sim._materials[k] for k in meta["scene_materials"]]
         if meta["inserters"]:
             from .insert import Inserter
             for saved in meta["inserters"]:
@@ -238,8 +178,10 @@ def _restore(arrays: dict, meta: dict, threads=None):
                 inserter._restore(saved["state"])
                 sim._inserters.append(inserter)
         sim.metadata = meta["metadata"]
-    except CheckpointError:
-        raise
-    except (KeyError, TypeError, ValueError, IndexError) as e:
-        raise CheckpointError(f"inconsistent checkpoint contents: {type(e).__name__}: {e}") from None
+        if threads is not None:
+            sim.threads = threads
+    except CheckpointError as e:
+        raise CheckpointError(f"{path}: inconsistent checkpoint contents: {e}") from None
+    except (KeyError, TypeError, ValueError, IndexError, UnicodeDecodeError) as e:
+        raise CheckpointError(f"{path}: inconsistent checkpoint contents: {type(e).__name__}: {e}") from None
     return sim

@@ -191,7 +191,6 @@ class Simulation:
         self._core = _core.Simulation()
         self._materials: list[Material] = []
         self._inserters: list = []  # hooks kept across runs (add_inserter)
-        self._pair_overrides: dict = {}  # (a, b) -> _core.PairParams, for checkpoints
         #: A JSON-able dict (default empty) saved with checkpoints (:meth:`save`) and restored by
         #: :meth:`load`; scene runs keep their scene there, for ``tsubu resume``.
         self.metadata: dict = {}
@@ -340,7 +339,6 @@ class Simulation:
         _check_uniform_range(p["roughness_distribution"], p["roughness"])
         params = _to_core(_core.PairParams, p)
         self._core.set_pair_parameters(a, b, params)
-        self._pair_overrides[(min(a, b), max(a, b))] = params  # one entry per pair: the last set
 
     def pair_parameters(self, material_a: Material, material_b: Material) -> dict:
         """The contact parameters used between two materials (mixed, or as overridden).
@@ -870,8 +868,7 @@ class Simulation:
             json.dumps(metadata, allow_nan=True)
         except (TypeError, ValueError) as e:
             raise TypeError(f"metadata must be JSON-able (dicts, lists, strings, numbers): {e}") from None
-        arrays, meta = checkpoint._state_of(self, metadata)
-        checkpoint.write_atomically(target, checkpoint._encode(arrays, meta))
+        checkpoint.write_atomically(target, checkpoint.encode(self, metadata))
         return target
 
     @staticmethod
@@ -896,8 +893,7 @@ class Simulation:
         source = _checks.path("path", path)
         if threads is not None:
             threads = _options.check("threads", threads)
-        arrays, meta = checkpoint._decode(source)
-        return checkpoint._restore(arrays, meta, threads)
+        return checkpoint.load(source, threads)
 
     # ---- state (copies, in id order) ---------------------------------------------------------
     @property

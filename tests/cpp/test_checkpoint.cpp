@@ -1,9 +1,13 @@
-// Tests of the checkpoint state (Simulation::run_state, contact_state and their setters): a
-// Simulation rebuilt from another's state, spheres in id order and contacts keyed by ids, runs
-// on bit for bit as the original does, in a small scene and in one large enough to fuse steps.
+// Tests of checkpoints: a Simulation rebuilt from another's state (Simulation::run_state,
+// contact_state and their setters: spheres in id order, contacts keyed by ids) runs on bit for
+// bit as the original does, in a small scene and in one large enough to fuse steps; so does one
+// that Simulation::save wrote to a stream and Simulation::load read back; a damaged stream is
+// refused with a message that says what is wrong.
 #include <cstdio>
 #include <random>
+#include <sstream>
 #include <stdexcept>
+#include <string>
 #include <vector>
 
 #include "check.hpp"
@@ -133,6 +137,83 @@ void test_bad_state_is_refused() {
   CHECK(refused || pairs.owner.empty());
 }
 
+// A C++ program saves a run to a stream, loads it into a new Simulation, and both run on: the
+// same bits, at another thread count too. Saving the loaded one gives the same bytes.
+void test_save_and_load_through_a_stream(int threads) {
+  Simulation whole(options(threads)), part(options(threads));
+  fill(whole, 8, 12, true);
+  fill(part, 8, 12, true);
+  PairParams p = part.pair_parameters(0, 1);
+  p.friction = 0.8;
+  whole.set_pair_parameters(0, 1, p);
+  part.set_pair_parameters(0, 1, p);
+  whole.run(8000);
+  part.run(6000);
+  std::stringstream file;
+  part.save(file);
+  std::printf("%zu spheres, %zu pair and %zu wall contacts: %zu bytes\n", part.size(),
+              part.contact_state(false).owner.size(), part.contact_state(true).owner.size(),
+              file.str().size());
+  CHECK(part.contact_state(false).owner.size() > 50);
+  CHECK(part.contact_state(true).owner.size() > 10);
+  Simulation copy = Simulation::load(file);
+  CHECK(identical(copy, part));
+  CHECK(copy.pair_parameters(0, 1).friction == 0.8);
+  CHECK(copy.material_count() == 2 && copy.plane_count() == 3);
+  std::stringstream again;
+  copy.save(again);
+  CHECK(again.str() == file.str());
+  copy.options().threads = 3 - threads;
+  copy.run(2000);
+  part.run(2000);
+  CHECK(identical(copy, whole));
+  CHECK(identical(part, whole));
+}
+
+std::string load_error(const std::string& bytes) {
+  std::istringstream in(bytes);
+  try {
+    Simulation::load(in);
+  } catch (const InvalidArgument& e) {
+    return e.what();
+  }
+  return "";
+}
+
+bool says(const std::string& message, const std::string& what) {
+  const bool ok = message.find(what) != std::string::npos;
+  if (!ok) std::printf("message \"%s\" does not say \"%s\"\n", message.c_str(), what.c_str());
+  return ok;
+}
+
+void test_a_damaged_stream_is_refused() {
+  Simulation s(options(1));
+  fill(s, 4, 4, true);
+  s.run(2000);
+  std::stringstream file;
+  s.save(file);
+  const std::string bytes = file.str();
+  for (std::size_t keep : {std::size_t(0), std::size_t(5), std::size_t(19), std::size_t(20),
+                           std::size_t(100), bytes.size() / 2, bytes.size() - 1})
+    CHECK(says(load_error(bytes.substr(0, keep)), "truncated"));
+  CHECK(says(load_error(bytes + "x"), "extended"));
+  CHECK(says(load_error("[simulation]\ngravity = [0, 0, -9.81]\n"), "not a tsubu checkpoint"));
+  std::string newer = bytes;
+  newer[8] = static_cast<char>(Simulation::kCheckpointVersion + 1);
+  CHECK(says(load_error(newer), "written by a newer tsubu"));
+  // Cut inside the last section with the header's length made to agree: the record is named.
+  std::string cut = bytes.substr(0, bytes.size() - 30);
+  const std::uint64_t length = cut.size() - 20;
+  for (int k = 0; k < 8; ++k) cut[12 + k] = static_cast<char>((length >> (8 * k)) & 0xff);
+  CHECK(says(load_error(cut), "record 'run' needs"));
+  // A record renamed: the reader names what it expected and what it found.
+  std::string renamed = bytes;
+  const std::size_t at = renamed.find("dissipated");
+  CHECK(at != std::string::npos);
+  renamed[at] = 'D';
+  CHECK(says(load_error(renamed), "section particles: expected record 'dissipated', found 'Dissipated'"));
+}
+
 }  // namespace
 
 int main() {
@@ -140,5 +221,8 @@ int main() {
   test_restored_runs_on_bit_for_bit(8, 12, 8000, 2000, 2, true);
   test_restored_runs_on_bit_for_bit(41, 40, 300, 20, 2, false);  // 67,240 spheres: fused steps
   test_bad_state_is_refused();
+  test_save_and_load_through_a_stream(1);
+  test_save_and_load_through_a_stream(2);
+  test_a_damaged_stream_is_refused();
   return tsubu_test::finish("test_checkpoint");
 }

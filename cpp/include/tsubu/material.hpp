@@ -9,6 +9,7 @@
 #include "contact/normal.hpp"
 #include "contact/rolling.hpp"
 #include "contact/roughness.hpp"
+#include "archive.hpp"
 #include "contact/tangential.hpp"
 #include "types.hpp"
 
@@ -63,6 +64,13 @@ inline PairParams mix(const Material& a, const Material& b) {
   p.finalise();
   return p;
 }
+
+// Checkpoints (checkpoint.cpp): a material's and a pair override's parameters, by name (the
+// derived terms of a pair are not saved: finalise() makes them again).
+void save(archive::Writer& w, const Material& m);
+void restore(archive::Reader& r, Material& m);
+void save(archive::Writer& w, const PairParams& p);
+void restore(archive::Reader& r, PairParams& p);
 
 // Symmetric table of PairParams indexed by material pair; rebuilt when materials change.
 class PairTable {

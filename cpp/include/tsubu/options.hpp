@@ -4,6 +4,7 @@
 #pragma once
 #include <cstdint>
 
+#include "archive.hpp"
 #include "material.hpp"
 #include "types.hpp"
 
@@ -37,6 +38,10 @@ struct Options {
   // The normal impact speed a Hertzian scene's contact duration and time-step bound are taken
   // at, m/s; 0: characteristic_speed()'s default.
   double impact_speed = 0;
+
+  // Checkpoints (docs/checkpoints.md): every field, by name.
+  void save(archive::Writer& w) const;
+  void restore(archive::Reader& r);
 };
 
 // Throw InvalidArgument naming the option and the value when one is out of its range.

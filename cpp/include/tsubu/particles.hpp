@@ -10,6 +10,7 @@
 #include <cstddef>
 #include <vector>
 
+#include "archive.hpp"
 #include "material.hpp"
 #include "memory.hpp"
 #include "state.hpp"
@@ -40,6 +41,12 @@ class Particles {
          const std::vector<Material>& table);
   // Capacity for `count` spheres in all.
   void reserve(std::size_t count);
+
+  // Checkpoints: the spheres in id order (position, velocity, spin, radius, material,
+  // dissipated energy). restore() fills an empty Particles (masses from `table`, as add() does)
+  // and refuses non-finite values, radii <= 0 and unknown materials.
+  void save(archive::Writer& w) const;
+  void restore(archive::Reader& r, const std::vector<Material>& table);
 
   // Copies a per-sphere 3-vector array from internal order to id order, and back (the latter
   // refusing non-finite values, naming the sphere).

@@ -10,10 +10,12 @@
 #include <atomic>
 #include <chrono>
 #include <functional>
+#include <iosfwd>
 #include <string>
 #include <utility>
 #include <vector>
 
+#include "archive.hpp"
 #include "contact_store.hpp"
 #include "domain.hpp"
 #include "engine/world.hpp"
@@ -170,8 +172,24 @@ class Simulation : private detail::RunHooks {
   Energy energy_now() const;
   std::vector<ContactInfo> contacts() const;
 
-  // ---- checkpoints (checkpoint.cpp) ----------------------------------------------------------
-  // What a checkpoint needs beyond the public setters: the counters and energy bookkeeping of
+  // ---- checkpoints (checkpoint.cpp, docs/checkpoints.md) -------------------------------------
+  // The whole state of the scene as bytes: options, materials and pair overrides, spheres in id
+  // order, walls, every touching contact keyed by ids, the run's counters and energy
+  // bookkeeping. A Simulation made by load() from them continues bit for bit as this one would
+  // have, for any thread count (set options().threads after loading to change it). Diagnostics
+  // (rebuild_count(), phase_seconds(), fused_step_count()) start from zero.
+  //
+  // The stream: 8 bytes kCheckpointMagic, the format version (4 bytes, little-endian), the
+  // length of what follows (8 bytes), then the parts' sections (archive.hpp). load() refuses a
+  // stream of another magic or version, a truncated one and inconsistent contents with an
+  // InvalidArgument that says which (and returns no Simulation).
+  static constexpr std::uint32_t kCheckpointVersion = 2;
+  static constexpr char kCheckpointMagic[9] = "\x89TSUBUc\n";
+  void save(std::ostream& out) const;
+  static Simulation load(std::istream& in);
+
+  // The pieces save() and load() write and read as sections, which the format-1 reader (tsubu's
+  // Python layer) restores one by one. What a checkpoint needs beyond the public setters: the counters and energy bookkeeping of
   // the run, each sphere's dissipated energy, and the state of every touching contact keyed by
   // ids. Restored onto a Simulation set up with the same materials, pair parameters, options,
   // spheres (in id order) and walls, a run continues bit for bit as the saved one would have:
@@ -185,6 +203,8 @@ class Simulation : private detail::RunHooks {
     bool energy_ref_valid = false;
     long energy_ref_step = 0;
     Vec3 energy_ref_gravity = Vec3::Zero();
+    void save(archive::Writer& w) const;
+    void restore(archive::Reader& r);
   };
   RunState run_state() const;
   void set_run_state(const RunState& s);
@@ -194,6 +214,8 @@ class Simulation : private detail::RunHooks {
     std::vector<Id> owner, partner;
     std::array<std::vector<double>, EntryStore::kFields> values;
     std::array<int, EntryStore::kFields> widths{};
+    void save(archive::Writer& w) const;
+    void restore(archive::Reader& r);
   };
   ContactState contact_state(bool walls) const;
   // Builds the lists and puts the saved state into them; throws InvalidArgument if a contact

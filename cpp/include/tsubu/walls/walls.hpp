@@ -8,6 +8,7 @@
 #include <cstddef>
 #include <vector>
 
+#include "../archive.hpp"
 #include "../types.hpp"
 #include "plane.hpp"
 
@@ -29,6 +30,12 @@ class Walls {
   void set_motion(int wall, const Vec3& velocity, const Vec3& angular_velocity);
   const Plane* planes() const { return planes_.data(); }
   int material(int wall) const { return plane(wall).material; }
+
+  // Checkpoints: every wall's whole state, bit for bit (a normal is not normalised again).
+  // restore() fills an empty Walls and refuses non-finite values, normals that are not unit
+  // length and materials outside [0, materials).
+  void save(archive::Writer& w) const;
+  void restore(archive::Reader& r, int materials);
 
   // Whether any wall moves (the contact pass then takes the wall's velocity at the contact).
   bool moving() const;
