@@ -39,13 +39,16 @@ void Simulation::set_run_state(const RunState& s) {
 }
 
 void Simulation::get_dissipated(double* out) const {
-  for (std::size_t k = 0; k < particles_.size(); ++k) out[particles_.arrays().id[k]] = particles_.arrays().dissipated[k];
+  particles_.gather_scalar(particles_.arrays().dissipated, out);
 }
 
 void Simulation::set_dissipated(const double* in) {
-  for (std::size_t id = 0; id < particles_.size(); ++id)
-    require(std::isfinite(in[id]), "dissipated energy of sphere " + std::to_string(id) + " is not finite");
-  for (std::size_t k = 0; k < particles_.size(); ++k) particles_.arrays().dissipated[k] = in[particles_.arrays().id[k]];
+  particles_.for_each_id([&](Id id, Index) {
+    require(std::isfinite(in[particles_.rank(id)]),
+            "dissipated energy of sphere " + std::to_string(id) + " is not finite");
+  });
+  for (std::size_t k = 0; k < particles_.size(); ++k)
+    particles_.arrays().dissipated[k] = in[particles_.rank(particles_.arrays().id[k])];
 }
 
 void Simulation::set_plane_state(int wall, const Plane& p) {
@@ -74,8 +77,7 @@ Simulation::ContactState Simulation::contact_state(bool walls) const {
       c.values[k].insert(c.values[k].end(), from, from + c.widths[k]);
     }
   };
-  for (Id id = 0; id < static_cast<Id>(particles_.size()); ++id) {  // in id order: the file is the same for any run
-    const Index i = particles_.index(id);
+  particles_.for_each_id([&](Id id, Index i) {  // in id order: the file is the same for any run
     if (walls) {
       for (Index e = lists_.wall_offset[i]; e < lists_.wall_offset[i + 1]; ++e)
         if (contacts_.walls.overlap[e] > 0) keep(id, lists_.wall_index[e], e);
@@ -83,7 +85,7 @@ Simulation::ContactState Simulation::contact_state(bool walls) const {
       for (Index e = lists_.near_offset[i]; e < lists_.near_offset[i + 1]; ++e)
         if (contacts_.pairs.overlap[e] > 0) keep(id, particles_.arrays().id[lists_.near_partner[e]], e);
     }
-  }
+  });
   return c;
 }
 
@@ -105,10 +107,9 @@ void Simulation::set_contact_state(const ContactState& pairs, const ContactState
               "contact array " + std::to_string(k) + " has the wrong length");
     }
     for (std::size_t e = 0; e < m; ++e) {
-      require(c.owner[e] >= 0 && c.owner[e] < static_cast<Id>(particles_.size()),
-              "contact names sphere " + std::to_string(c.owner[e]) + ", beyond the spheres");
+      require(particles_.has(c.owner[e]), "contact names sphere " + std::to_string(c.owner[e]) + ", which the scene has not");
       require(w ? (c.partner[e] >= 0 && c.partner[e] < plane_count())
-                : (c.partner[e] > c.owner[e] && c.partner[e] < static_cast<Id>(particles_.size())),
+                : (c.partner[e] > c.owner[e] && particles_.has(c.partner[e])),
               "contact " + std::to_string(c.owner[e]) + "-" + std::to_string(c.partner[e]) +
                   " names no " + (w ? "wall" : "sphere of a higher id"));
       require(c.values[1][e] > 0, "a stored contact is not touching");

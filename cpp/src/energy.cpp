@@ -137,14 +137,14 @@ void Simulation::get_torques(double* out) const {
 Energy Simulation::energy() const {
   Energy e;
   // Serial sums in id order: the same digits whatever the thread count.
-  for (Id id = 0; id < static_cast<Id>(particles_.size()); ++id) {
-    const Index k = particles_.index(id);
-    const double m = particles_.arrays().mass[k];
-    e.translational += 0.5 * m * vec3(particles_.arrays().v.data(), k).squaredNorm();
-    e.rotational += 0.5 / particles_.arrays().inv_inertia[k] * vec3(particles_.arrays().w.data(), k).squaredNorm();
-    e.gravitational -= m * opt_.gravity.dot(domain_.unwrapped(vec3(particles_.arrays().x.data(), k), k));
-    e.dissipated += particles_.arrays().dissipated[k];
-  }
+  const ParticleStore& ps = particles_.arrays();
+  particles_.for_each_id([&](Id, Index k) {
+    const double m = ps.mass[k];
+    e.translational += 0.5 * m * vec3(ps.v.data(), k).squaredNorm();
+    e.rotational += 0.5 / ps.inv_inertia[k] * vec3(ps.w.data(), k).squaredNorm();
+    e.gravitational -= m * opt_.gravity.dot(domain_.unwrapped(vec3(ps.x.data(), k), k));
+    e.dissipated += ps.dissipated[k];
+  });
   if (!ran_) return e;
   const CompiledLaw& law = this->law();
   for (const ContactInfo& c : contacts()) {

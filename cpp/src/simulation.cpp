@@ -129,6 +129,49 @@ Id Simulation::add_spheres(std::size_t n, const double* positions, const double*
 
 void Simulation::reserve(std::size_t count) { particles_.reserve(count); }
 
+void Simulation::remove_spheres(std::size_t count, const Id* ids) {
+  if (running()) throw std::logic_error("tsubu: Simulation::remove_spheres during a run");
+  std::vector<char> gone(particles_.id_bound(), 0);
+  for (std::size_t k = 0; k < count; ++k) {
+    require(particles_.has(ids[k]), [&] { return "remove_spheres: no sphere " + std::to_string(ids[k]); });
+    require(!gone[static_cast<std::size_t>(ids[k])],
+            [&] { return "remove_spheres: sphere " + std::to_string(ids[k]) + " listed twice"; });
+    gone[static_cast<std::size_t>(ids[k])] = 1;
+  }
+  if (count == 0) return;
+  // The contacts that stay are carried by ids, as a checkpoint carries them (the lists refer to
+  // internal indices, which the removal changes).
+  const bool carry = law_ != nullptr && lists_.built(particles_.size());
+  ContactState pairs, walls;
+  if (carry) {
+    auto drop = [&](ContactState& c, bool wall) {
+      ContactState kept;
+      kept.widths = c.widths;
+      for (std::size_t e = 0; e < c.owner.size(); ++e) {
+        if (gone[static_cast<std::size_t>(c.owner[e])] || (!wall && gone[static_cast<std::size_t>(c.partner[e])]))
+          continue;
+        kept.owner.push_back(c.owner[e]);
+        kept.partner.push_back(c.partner[e]);
+        for (std::size_t k = 0; k < EntryStore::kFields; ++k)
+          kept.values[k].insert(kept.values[k].end(), c.values[k].begin() + c.widths[k] * e,
+                                c.values[k].begin() + c.widths[k] * (e + 1));
+      }
+      c = std::move(kept);
+    };
+    pairs = contact_state(false);
+    walls = contact_state(true);
+    drop(pairs, false);
+    drop(walls, true);
+  }
+  particles_.remove(ids, count);
+  const long rebuilds = lists_.rebuilds, refreshes = lists_.refreshes;
+  lists_ = NeighborList();  // nothing to carry over from lists of the old indices
+  lists_.rebuilds = rebuilds;
+  lists_.refreshes = refreshes;
+  energy_ref_valid_ = false;
+  if (carry) set_contact_state(pairs, walls);
+}
+
 Id Simulation::add_sphere(const Vec3& position, double radius, int material,
                           const Vec3& velocity, const Vec3& angular_velocity) {
   return add_spheres(1, position.data(), &radius, &material, velocity.data(),

@@ -1,11 +1,12 @@
 // The spheres: structure-of-arrays state (state.hpp's ParticleStore) in an internal order that
 // the neighbour list re-sorts by cell at every rebuild, and the map from each sphere's stable id
 // to its index now. Everything outside the engine speaks in ids; arrays in "id order" list the
-// spheres by increasing id.
+// spheres by increasing id (row rank(id)).
 //
-// Ids are handed out in the order of addition and the map is an array indexed by id; the rest of
-// the core asks only index(id), id(index) and the id-order helpers below, so that removing or
-// migrating spheres (which leaves gaps in the ids) changes this type alone.
+// Ids are handed out in the order of addition and never reused. A removed sphere leaves a gap:
+// ids then need not be 0..N-1, and the rows of id-order arrays follow rank(id). The rest of the
+// core asks only index(id), id(index), has(id), rank(id) and for_each_id, so that migrating
+// spheres between processes changes this type alone.
 #pragma once
 #include <cstddef>
 #include <vector>
@@ -28,10 +29,26 @@ class Particles {
   // The internal index of the sphere with id `id`, and the id at index k.
   Index index(Id id) const { return index_of_[static_cast<std::size_t>(id)]; }
   Id id(Index k) const { return s_.id[static_cast<std::size_t>(k)]; }
+  static constexpr Index kGone = -1;  // index_of_ of a removed sphere's id
   // Whether `id` names a sphere.
-  bool has(Id id) const { return id >= 0 && static_cast<std::size_t>(id) < index_of_.size(); }
+  bool has(Id id) const {
+    return id >= 0 && static_cast<std::size_t>(id) < index_of_.size() &&
+           index_of_[static_cast<std::size_t>(id)] != kGone;
+  }
   // One past the largest id handed out (the size of an id-indexed table).
   std::size_t id_bound() const { return index_of_.size(); }
+  // Whether the ids are exactly 0..N-1 (no sphere was removed).
+  bool dense() const { return n_ == index_of_.size(); }
+  // The row of sphere `id` in arrays in id order: the number of spheres with a lower id.
+  std::size_t rank(Id id) const {
+    return dense() ? static_cast<std::size_t>(id) : static_cast<std::size_t>(rank_of_[static_cast<std::size_t>(id)]);
+  }
+  // Calls f(id, index) for every sphere, by increasing id.
+  template <class F>
+  void for_each_id(F&& f) const {
+    for (std::size_t id = 0; id < index_of_.size(); ++id)
+      if (index_of_[id] != kGone) f(static_cast<Id>(id), index_of_[id]);
+  }
 
   // Appends n spheres (3n positions, n radii and materials; velocities and spins may be null),
   // their masses from the materials' densities: I = 2/5 m r^2 (1.3). Checks nothing: the
@@ -41,9 +58,12 @@ class Particles {
          const std::vector<Material>& table);
   // Capacity for `count` spheres in all.
   void reserve(std::size_t count);
+  // Removes the spheres with the given ids (each present, each once; the Simulation checks).
+  // The others keep their ids, their internal order and their state.
+  void remove(const Id* ids, std::size_t count);
 
-  // Checkpoints: the spheres in id order (position, velocity, spin, radius, material,
-  // dissipated energy). restore() fills an empty Particles (masses from `table`, as add() does)
+  // Checkpoints: the spheres in id order (id, position, velocity, spin, radius, material,
+  // dissipated energy); the ids after a removal are kept as they were. restore() fills an empty Particles (masses from `table`, as add() does)
   // and refuses non-finite values, radii <= 0 and unknown materials.
   void save(archive::Writer& w) const;
   void restore(archive::Reader& r, const std::vector<Material>& table);
@@ -55,7 +75,7 @@ class Particles {
   // A per-sphere scalar in id order.
   template <class T, class A>
   void gather_scalar(const A& src, T* out) const {
-    for (std::size_t k = 0; k < n_; ++k) out[s_.id[k]] = src[k];
+    for (std::size_t k = 0; k < n_; ++k) out[rank(s_.id[k])] = src[k];
   }
 
   // Puts the spheres in the order perm (sphere perm[k] to index k) and updates the map.
@@ -72,7 +92,9 @@ class Particles {
  private:
   std::size_t n_ = 0;
   ParticleStore s_;
-  Array<Index> index_of_;  // id -> internal index
+  Array<Index> index_of_;  // id -> internal index, kGone for a removed sphere
+  Array<Index> rank_of_;   // id -> row in id order; only once a sphere was removed (!dense())
+  void rank_ids();         // rank_of_ from index_of_
 };
 
 }  // namespace tsubu

@@ -76,6 +76,12 @@ class Simulation : private detail::RunHooks {
   // Capacity for `count` spheres in all, so that adding them in batches does not regrow (and
   // fragment) the particle arrays.
   void reserve(std::size_t count);
+  // Removes the spheres with the given ids (C++ only for now). The others keep their ids, their
+  // state and their contacts' history; the removed spheres' contacts end (their energy leaves
+  // with them). Ids are never reused: arrays in id order then have a row per sphere left, by
+  // increasing id (ids need not be 0..N-1). Throws InvalidArgument for an unknown or repeated
+  // id, std::logic_error during a run.
+  void remove_spheres(std::size_t count, const Id* ids);
   Id add_sphere(const Vec3& position, double radius, int material,
                 const Vec3& velocity = Vec3::Zero(), const Vec3& angular_velocity = Vec3::Zero());
   int add_plane(const Vec3& point, const Vec3& normal, int material,
