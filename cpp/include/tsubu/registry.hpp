@@ -82,9 +82,18 @@ struct CompiledLaw {
   double (*elastic_force)(const PairParams&, double overlap, double r_eff);  // no dashpot
   double (*tangential_energy)(const PairParams&, const double* history);
   double (*tangential_stiffness)(const PairParams&, const double* history);  // 0: no spring
+  // The largest separation a touching contact of reduced radius r_eff survives: 0 unless the
+  // normal law is sticky (contact/normal.hpp), whose contacts hold at negative overlap.
+  double (*separation)(const PairParams&, double r_eff);
   int entry_width, history_width, rough_width;
-  bool torque, rolling;
+  bool torque, rolling, sticky;
 };
+
+// Whether a stored entry with this overlap touches: overlap > 0, or, under a sticky law, any
+// overlap a touching contact stores (an entry that does not touch stores 0).
+inline bool touching(const CompiledLaw& law, double overlap) {
+  return overlap > 0 || (law.sticky && overlap != 0);
+}
 
 const CompiledLaw& find_law(const LawKey& key);
 // How many specialisations the library holds.

@@ -22,6 +22,29 @@ struct ContactLaw {
   using History = typename Tangential::History;
   static constexpr bool has_history = Tangential::enabled;
   static constexpr int history_width = Tangential::history_width;
+  // A sticky normal law's contact survives to a negative overlap (contact/normal.hpp): an entry
+  // that does not touch starts to at delta > 0; one that touches keeps touching while
+  // delta > -separation.
+  static constexpr bool kSticky = Normal::kSticky;
+  // The largest separation a touching contact of reduced radius r_eff survives (0 if not sticky).
+  static double separation(const PairParams& p, double r_eff) {
+    if constexpr (kSticky) return Normal::separation(p, r_eff);
+    (void)p, (void)r_eff;
+    return 0;
+  }
+  // The same from an entry's terms (entry_terms()); for the loop.
+  TSUBU_INLINE static double entry_separation(const double* e) {
+    if constexpr (kSticky) return Normal::entry_separation(e);
+    (void)e;
+    return 0;
+  }
+  // What the normal spring of a sticky contact holds at overlap delta, from the packed
+  // parameters q and the entry's terms e: lost when the contact breaks (0 if not sticky).
+  static double lane_energy(const double* q, const double* e, double delta) {
+    if constexpr (kSticky) return Normal::lane_energy(q, e, delta);
+    (void)q, (void)e, (void)delta;
+    return 0;
+  }
   // A tilted normal gives torque even without friction.
   static constexpr bool has_torque = Tangential::enabled || Rolling::enabled || Roughness::enabled;
 
