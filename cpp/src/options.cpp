@@ -66,6 +66,13 @@ void check_law_fields(const P& p, bool hertzian, const char* prefix) {
   TSUBU_CHECK("rolling_friction", p.rolling_friction, prefix);
   TSUBU_CHECK("tangential_damping", p.tangential_damping, prefix);
   TSUBU_CHECK("roughness", p.roughness, prefix);
+  TSUBU_CHECK("work_of_adhesion", p.work_of_adhesion, prefix);
+  require(!(p.work_of_adhesion > 0) || hertzian, [&] {
+    return std::string(prefix) +
+           "work_of_adhesion > 0 needs youngs_modulus (adhesion is offered on Hertz's law), got "
+           "work_of_adhesion " + fmt(p.work_of_adhesion) + " for a linear " +
+           (*prefix ? "pair" : "material");
+  });
   // A cross-option rule: a uniform draw spans +-sqrt(3) sigma, which must stay below 90 degrees.
   require(p.roughness_distribution != ScatterDistribution::Uniform ||
               std::sqrt(3.0) * p.roughness < 0.5 * M_PI,

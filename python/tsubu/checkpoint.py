@@ -43,7 +43,7 @@ _HEADER = struct.Struct("<8sIQ32s")
 
 # The engine options a checkpoint keeps, as the constructor's arguments.
 _OPTIONS = ("gravity", "dt", "threads", "seed", "skin", "tangential_history", "slip_rule",
-            "hertz_force", "impact_speed", "max_overlap", "initial_overlap", "allow_unstable_dt",
+            "hertz_force", "adhesion", "impact_speed", "max_overlap", "initial_overlap", "allow_unstable_dt",
             "rebuild_every_step", "parallel_min")
 
 
@@ -138,7 +138,7 @@ def _options(sim) -> dict:
     return {"gravity": list(c.gravity), "dt": zero_is_none(c.dt), "threads": zero_is_none(c.threads),
             "seed": int(c.seed), "skin": zero_is_none(c.skin_option),
             "tangential_history": c.history_rule, "slip_rule": c.slip_rule,
-            "hertz_force": "repulsive" if c.repulsive else "signed",
+            "hertz_force": "repulsive" if c.repulsive else "signed", "adhesion": c.adhesion,
             "impact_speed": zero_is_none(c.impact_speed), "max_overlap": c.max_overlap,
             "initial_overlap": c.initial_overlap, "allow_unstable_dt": c.allow_unstable_dt,
             "rebuild_every_step": c.rebuild_every_step, "parallel_min": c.parallel_min}

@@ -68,6 +68,9 @@ struct ContactLaw {
   // is in the near list (the loop keeps them per entry): the normal law's, then the damping
   // law's. lane() turns them into the force at an overlap.
   static constexpr int kEntryTerms = Normal::kEntryTerms + Damping::kEntryTerms;
+  static constexpr bool kForceReadsEntry =
+      std::is_invocable_v<decltype(&Normal::force), const double*, const double*, const NormalState&,
+                          double, double, double, double&>;
   static void entry_terms(const PairParams& p, double m_eff, double r_eff, double* e) {
     Normal::entry_terms(p, r_eff, e);
     Damping::entry_terms(p, m_eff, e + Normal::kEntryTerms);
@@ -82,7 +85,11 @@ struct ContactLaw {
                                   L3& n_cross_ft, double& power) {
     const NormalState s = Normal::state(q, e, delta);
     const double eta_n = Damping::lane(e + Normal::kEntryTerms, s);
-    const double fn = Normal::force(q, s, delta, eta_n, vn, power);
+    double fn;
+    if constexpr (kForceReadsEntry)  // a law whose force reads the entry's terms (DMT's F_c)
+      fn = Normal::force(q, e, s, delta, eta_n, vn, power);
+    else
+      fn = Normal::force(q, s, delta, eta_n, vn, power);
     force = fn * n;
     if constexpr (Tangential::enabled) {
       const double* t = q + kNormalParams;  // the tangential law's packed parameters

@@ -1,5 +1,6 @@
 // Normal elastic laws. A normal law owns its parameters and their mixing rule, its force in lane
-// form, its elastic energy and the stiffness the time-step bounds use.
+// form, its elastic energy and the stiffness the time-step bounds use. (The adhesive laws, JKR and
+// DMT, are in adhesive.hpp.)
 //
 // A law whose contact, once made, survives to a negative overlap (an adhesive neck, JKR) says so
 // with kSticky = true and gives the largest separation a touching contact survives
