@@ -257,3 +257,33 @@ def test_agglomerate_survives_a_gentle_drop_and_breaks_at_a_hard_one():
     hard = drop_cluster(1.0)
     assert len(pieces(hard)) >= 2
     print(f"gentle: pieces {pieces(gentle)}; hard: pieces {pieces(hard)}")
+
+
+def test_jkr_contact_at_negative_overlap_survives_rebuilds_and_checkpoints(tmp_path):
+    """A touching entry stores a negative overlap while the neck holds: it keeps touching (and
+    its history) through a neighbour-list rebuild at every step and through a checkpoint saved
+    at a negative overlap, bit for bit."""
+    def run(steps, rebuild=False, save_at=None):
+        sim = tsubu.Simulation(gravity=(0, 0, 0), dt=2e-7, adhesion="jkr",
+                               rebuild_every_step=rebuild)
+        m = material(restitution=1.0, friction=0.3)
+        sim.add_spheres([[0, 0, R + 2e-7]], R, material=m, velocities=[[0.001, 0, -0.03]])
+        sim.add_plane(point=(0, 0, 0), normal=(0, 0, 1), material=m)
+        if save_at is not None:
+            sim.run(steps=save_at)
+            assert sim.contacts()["overlap"][0] < 0
+            sim.save(tmp_path / "negative.tsubu")
+            sim = tsubu.Simulation.load(tmp_path / "negative.tsubu")
+            steps -= save_at
+        sim.run(steps=steps)
+        return sim
+    _, stored, _, _ = jkr_bounce()
+    negative = np.where(stored < 0)[0]
+    steps = len(stored) + 50
+    plain = run(steps)
+    assert len(plain.contacts()["overlap"]) == 0 and plain.energy()["dissipated"] > 0
+    for other in (run(steps, rebuild=True), run(steps, save_at=int(negative.mean()))):
+        assert np.array_equal(plain.positions, other.positions)
+        assert np.array_equal(plain.velocities, other.velocities)
+        assert np.array_equal(plain.angular_velocities, other.angular_velocities)
+        assert plain.energy()["dissipated"] == other.energy()["dissipated"]
