@@ -54,6 +54,11 @@ struct Choices<tsubu::SlipRule> {
   static constexpr const char* argument = "slip_rule";
   static constexpr const auto& names = tsubu::kSlipRuleNames;
 };
+template <>
+struct Choices<tsubu::AdhesionLaw> {
+  static constexpr const char* argument = "adhesion";
+  static constexpr const auto& names = tsubu::kAdhesionLawNames;
+};
 
 // "'a', 'b' or 'c'"
 template <class E>

@@ -33,6 +33,7 @@ PYBIND11_MODULE(_core, m) {
   choices[Choices<tsubu::ShadowRule>::argument] = names<tsubu::ShadowRule>();
   choices[Choices<tsubu::HistoryRule>::argument] = names<tsubu::HistoryRule>();
   choices[Choices<tsubu::SlipRule>::argument] = names<tsubu::SlipRule>();
+  choices[Choices<tsubu::AdhesionLaw>::argument] = names<tsubu::AdhesionLaw>();
   m.attr("choices") = choices;
   m.attr("compiled_law_count") = tsubu::compiled_law_count();
   m.def("available_memory", &tsubu::available_memory,

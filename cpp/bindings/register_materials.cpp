@@ -36,6 +36,7 @@ void law_fields(py::class_<C>& cls, py::list& fields) {
   number("rolling_friction", &C::rolling_friction);
   number("tangential_damping", &C::tangential_damping);
   number("roughness", &C::roughness);
+  number("work_of_adhesion", &C::work_of_adhesion);
   cls.def_property(
       "roughness_distribution", [](const C& c) { return name_of(c.roughness_distribution); },
       [](C& c, const std::string& v) { c.roughness_distribution = parse<tsubu::ScatterDistribution>(v); },

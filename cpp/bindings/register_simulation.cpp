@@ -112,6 +112,7 @@ void register_simulation(py::class_<Sim>& cls) {
   option(cls, "rebuild_every_step", &tsubu::Options::rebuild_every_step);
   enum_option(cls, "history_rule", &tsubu::Options::history);
   enum_option(cls, "slip_rule", &tsubu::Options::slip);
+  enum_option(cls, "adhesion", &tsubu::Options::adhesion);
   option(cls, "repulsive", &tsubu::Options::repulsive);
   option(cls, "impact_speed", &tsubu::Options::impact_speed);
 

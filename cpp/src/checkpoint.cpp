@@ -69,6 +69,7 @@ Simulation::ContactState Simulation::contact_state(bool walls) const {
   const auto widths = EntryStore::widths(walls ? contacts_.wall_shape : contacts_.pair_shape);
   for (std::size_t k = 0; k < EntryStore::kFields; ++k) c.widths[k] = arrays[k]->empty() ? 0 : widths[k];
   if (lists_.near_offset.size() != particles_.size() + 1) return c;  // no lists: never ran
+  const CompiledLaw& law = this->law();  // (which stored entries touch)
   auto keep = [&](Id owner, Id partner, Index e) {
     c.owner.push_back(owner);
     c.partner.push_back(partner);
@@ -80,10 +81,10 @@ Simulation::ContactState Simulation::contact_state(bool walls) const {
   particles_.for_each_id([&](Id id, Index i) {  // in id order: the file is the same for any run
     if (walls) {
       for (Index e = lists_.wall_offset[i]; e < lists_.wall_offset[i + 1]; ++e)
-        if (contacts_.walls.overlap[e] > 0) keep(id, lists_.wall_index[e], e);
+        if (touching(law, contacts_.walls.overlap[e])) keep(id, lists_.wall_index[e], e);
     } else {
       for (Index e = lists_.near_offset[i]; e < lists_.near_offset[i + 1]; ++e)
-        if (contacts_.pairs.overlap[e] > 0) keep(id, particles_.arrays().id[lists_.near_partner[e]], e);
+        if (touching(law, contacts_.pairs.overlap[e])) keep(id, particles_.arrays().id[lists_.near_partner[e]], e);
     }
   });
   return c;
@@ -112,7 +113,7 @@ void Simulation::set_contact_state(const ContactState& pairs, const ContactState
                 : (c.partner[e] > c.owner[e] && particles_.has(c.partner[e])),
               "contact " + std::to_string(c.owner[e]) + "-" + std::to_string(c.partner[e]) +
                   " names no " + (w ? "wall" : "sphere of a higher id"));
-      require(c.values[1][e] > 0, "a stored contact is not touching");
+      require(touching(*law_, c.values[1][e]), "a stored contact is not touching");
     }
   }
   lists_.rebuild_empty(list_context(), skin());  // fresh lists, no state
@@ -161,6 +162,7 @@ void law_fields(C& c, F&& real, G&& choice) {
   real("rolling_friction", c.rolling_friction);
   real("tangential_damping", c.tangential_damping);
   real("roughness", c.roughness);
+  real("work_of_adhesion", c.work_of_adhesion);
   choice("roughness_distribution", c.roughness_distribution, 1);
   choice("shadow", c.shadow, 2);
 }

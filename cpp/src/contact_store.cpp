@@ -22,11 +22,11 @@ void ContactStore::size(std::size_t pair_entries, std::size_t wall_entries) {
 }
 
 void ContactStore::stash_pair_state(const Array<Index>& offset, const Array<Index>& partner,
-                                    const Array<Id>& id) {
+                                    const Array<Id>& id, const CompiledLaw& law) {
   // Only touching entries have state: copy theirs, compactly, with rows by owner.
   const std::size_t rows = offset.empty() ? 0 : offset.size() - 1;
   std::size_t count = 0;
-  for (double o : pairs.overlap) count += o > 0;
+  for (double o : pairs.overlap) count += touching(law, o);
   stash_offset.resize(rows + 1);
   stash_partner.resize(count);
   const auto state = pairs.carried();
@@ -38,7 +38,7 @@ void ContactStore::stash_pair_state(const Array<Index>& offset, const Array<Inde
   stash_offset[0] = 0;
   for (std::size_t i = 0; i < rows; ++i) {
     for (Index q = offset[i]; q < offset[i + 1]; ++q) {
-      if (!(pairs.overlap[q] > 0)) continue;
+      if (!touching(law, pairs.overlap[q])) continue;
       stash_partner[c] = id[partner[q]];
       for (std::size_t k = 0; k < kFields; ++k) {
         if (stash_pairs[k].empty()) continue;

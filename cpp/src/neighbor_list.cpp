@@ -42,7 +42,7 @@ void NeighborList::rebuild(const Context& c, double skin_now, bool keep_history)
   const bool transfer = keep_history && old_n > 0 && wall_offset.size() == old_n + 1;
   ContactStore& cs = c.contacts;
   if (transfer) {
-    cs.stash_pair_state(near_offset, near_partner, c.particles.arrays().id);
+    cs.stash_pair_state(near_offset, near_partner, c.particles.arrays().id, c.law);
     cs.stash_wall_offset.swap(wall_offset);
     cs.stash_wall_index.swap(wall_index);
     cs.stash_wall_element.swap(wall_element);
@@ -168,16 +168,16 @@ void NeighborList::build_walls(const Context& c, double skin_now, bool transfer,
             break;
           }
       for (Index q = cs.stash_wall_offset[oi]; q < cs.stash_wall_offset[oi + 1]; ++q)
-        if (cs.stash_walls[1][q] > 0)  // touching, and now beyond the skin: it opened
+        if (touching(c.law, cs.stash_walls[1][q]))  // touching, and now beyond the skin: it opened
           ps.dissipated[i] += spring_energy(c, ps.material[i], c.walls.material(cs.stash_wall_index[q]),
                                             cs.stash_walls[0], q);
     }
   }
-  for (std::size_t e = 0; e < cs.walls.overlap.size(); ++e) cs.walls.touch[e] = cs.walls.overlap[e] > 0;
+  for (std::size_t e = 0; e < cs.walls.overlap.size(); ++e) cs.walls.touch[e] = touching(c.law, cs.walls.overlap[e]);
 }
 
 void NeighborList::refresh(const Context& c) {
-  c.contacts.stash_pair_state(near_offset, near_partner, c.particles.arrays().id);
+  c.contacts.stash_pair_state(near_offset, near_partner, c.particles.arrays().id, c.law);
   refresh_near(c, true, false);
 }
 
@@ -252,7 +252,7 @@ void NeighborList::refresh_near(const Context& c, bool transfer, bool reordered)
       for (Index q = near_offset[i]; q < near_offset[i + 1] && p < p_end; ++q) {
         const Id b = ps.id[near_partner[q]];
         while (p < p_end && old_partner[p] < b) ++p;
-        if (p == p_end || old_partner[p] != b || !(old_overlap[p] > 0)) continue;
+        if (p == p_end || old_partner[p] != b || !touching(c.law, old_overlap[p])) continue;
         for (std::size_t k = 0; k < ContactStore::kFields; ++k) {
           if (!now_state[k]) continue;  // the old or new law has no such array
           const std::size_t wd = width[k];
@@ -262,13 +262,13 @@ void NeighborList::refresh_near(const Context& c, bool transfer, bool reordered)
         cs.stash_pairs[1][p] = 0;  // carried
       }
       for (p = old_offset[oi]; p < p_end; ++p)
-        if (old_overlap[p] > 0) {  // touching, and now beyond the near list: it opened
+        if (touching(c.law, old_overlap[p])) {  // touching, and now beyond the near list: it opened
           const Index j = c.particles.index(old_partner[p]);
           ps.dissipated[i] += spring_energy(c, ps.material[i], ps.material[j], cs.stash_pairs[0], p);
         }
     }
   }
-  for (std::size_t q = 0; q < cs.pairs.overlap.size(); ++q) cs.pairs.touch[q] = cs.pairs.overlap[q] > 0;
+  for (std::size_t q = 0; q < cs.pairs.overlap.size(); ++q) cs.pairs.touch[q] = touching(c.law, cs.pairs.overlap[q]);
 
   // 3. Reverse index: for each particle, the entries where it is the partner, by owner id.
   near_rev_offset.assign(n + 1, 0);

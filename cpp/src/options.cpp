@@ -68,6 +68,13 @@ void check_law_fields(const P& p, bool hertzian, const char* prefix) {
   TSUBU_CHECK("rolling_friction", p.rolling_friction, prefix);
   TSUBU_CHECK("tangential_damping", p.tangential_damping, prefix);
   TSUBU_CHECK("roughness", p.roughness, prefix);
+  TSUBU_CHECK("work_of_adhesion", p.work_of_adhesion, prefix);
+  require(!(p.work_of_adhesion > 0) || hertzian, [&] {
+    return std::string(prefix) +
+           "work_of_adhesion > 0 needs youngs_modulus (adhesion is offered on Hertz's law), got "
+           "work_of_adhesion " + fmt(p.work_of_adhesion) + " for a linear " +
+           (*prefix ? "pair" : "material");
+  });
   // A cross-option rule: a uniform draw spans +-sqrt(3) sigma, which must stay below 90 degrees.
   require(p.roughness_distribution != ScatterDistribution::Uniform ||
               std::sqrt(3.0) * p.roughness < 0.5 * M_PI,
@@ -126,6 +133,7 @@ void Options::save(archive::Writer& w) const {
   w.integer("rebuild_every_step", rebuild_every_step);
   w.integer("seed", static_cast<std::int64_t>(seed));  // two's complement: the same 64 bits back
   w.integer("repulsive", repulsive);
+  w.integer("adhesion", static_cast<int>(adhesion));
   w.real("impact_speed", impact_speed);
 }
 
@@ -155,6 +163,7 @@ void Options::restore(archive::Reader& r) {
   rebuild_every_step = flag("rebuild_every_step");
   seed = static_cast<std::uint64_t>(r.integer("seed"));
   repulsive = flag("repulsive");
+  adhesion = static_cast<AdhesionLaw>(in("adhesion", 0, 1));
   impact_speed = r.real("impact_speed");
 }
 

@@ -232,6 +232,18 @@ void Simulation::prepare_run() {
     throw InvalidArgument("dt = " + fmt(run_.dt) + " s exceeds the stability bound " + fmt(crit) +
                           " s of (2.31) for this scene; use a smaller dt or allow_unstable_dt");
   select_law();
+  if (law_->sticky) {  // a touching contact must stay in the near list: r_i + r_j + skin/10
+    double rmax = 0, sep = 0;
+    for (double r : particles_.arrays().radius) rmax = std::max(rmax, r);
+    for (std::size_t a = 0; a < materials_.size(); ++a)
+      for (std::size_t b = a; b < materials_.size(); ++b)
+        sep = std::max(sep, law_->separation(pair_parameters(int(a), int(b)), rmax));
+    require(sep < 0.1 * skin(), [&] {
+      return "the contacts of this scene's law " + law_->name() + " hold to a separation of " +
+             fmt(sep) + " m, beyond the near list's reach skin/10 = " + fmt(0.1 * skin()) +
+             " m: give a skin above " + fmt(10 * sep) + " m";
+    });
+  }
   if (!lists_.valid) lists_.rebuild(list_context(), skin(), true);
   contacts_.size(lists_.near_partner.size(), lists_.wall_index.size());
   lists_.cache_terms(list_context());  // the pair table may have changed since the last run

@@ -110,12 +110,7 @@ LawKey Simulation::law_key() const {
   laws::PairNeeds scene;
   const std::size_t nm = materials_.size();
   for (std::size_t a = 0; a < nm; ++a)
-    for (std::size_t b = a; b < nm; ++b) {
-      const laws::PairNeeds pair = laws::needs(pair_parameters(int(a), int(b)), hertz);
-      scene.friction |= pair.friction;
-      scene.rolling |= pair.rolling;
-      scene.rough |= pair.rough;
-    }
+    for (std::size_t b = a; b < nm; ++b) scene.add(laws::needs(pair_parameters(int(a), int(b)), hertz));
   return laws::select(hertz, scene, opt_);
 }
 }  // namespace tsubu

@@ -32,7 +32,9 @@ class Material:
       ``1/G* = (2 - nu_a)/G_a + (2 - nu_b)/G_b``, ``G = E / (2 (1 + nu))`` (a plane wall: the
       wall material's E and nu, with ``R* = r`` and ``m* = m`` of the sphere; a rigid wall is a
       wall material with a much larger E);
-    * ``restitution``, ``friction``, ``rolling_friction``, ``tangential_damping``: geometric mean.
+    * ``restitution``, ``friction``, ``rolling_friction``, ``tangential_damping``,
+      ``work_of_adhesion``: geometric mean (for the work of adhesion, Dupre's
+      ``w_ab = gamma_a + gamma_b - gamma_ab`` with Berthelot's rule for the interface).
 
     Parameters
     ----------
@@ -72,6 +74,16 @@ class Material:
         first touch the contact normal is tilted by a random angle dG (docs/roughness.md).
         0 (default): smooth, and the run uses a specialisation without roughness code. Two
         materials combine as sqrt(sigma_a^2 + sigma_b^2).
+    work_of_adhesion : float
+        Work of adhesion w [J/m^2] >= 0 of two surfaces of this material (``2 gamma``, gamma its
+        surface energy). Default 0 (no adhesion). Only for a Hertzian material: w > 0 makes the
+        scene adhesive, with the normal law chosen by ``Simulation(adhesion=...)``: JKR
+        (default; the contact is made at zero overlap and holds to the negative overlap
+        ``delta_c = -(3/4) (pi^2 w^2 R* / E*^2)^(1/3)``, pull-off force ``(3/2) pi w R*``) or
+        DMT (Hertz's force less ``2 pi w R*``, pull-off ``2 pi w R*``), with the Hertzian
+        dashpot and Mindlin's spring (docs/physics.md). Two materials mix as
+        ``sqrt(w_a w_b)``. Roughness, ``hertz_force="repulsive"`` and
+        ``slip_rule="truncate"`` are not offered with adhesion.
     roughness_distribution : {"normal", "uniform"}
         Distribution of dG: zero-mean normal with standard deviation sigma, truncated to
         ``abs(dG) < 90`` degrees (default), or uniform on [-sqrt(3) sigma, sqrt(3) sigma] (same
@@ -90,7 +102,8 @@ class Material:
         string.
     ValueError
         For a parameter out of its range (the message names it and gives the range), both
-        ``kn``/``kt`` and ``youngs_modulus``, a ``poisson_ratio`` without ``youngs_modulus``, an
+        ``kn``/``kt`` and ``youngs_modulus``, a ``poisson_ratio`` or a ``work_of_adhesion`` > 0
+        without ``youngs_modulus``, an
         unknown ``roughness_distribution`` or ``shadow``, or a uniform roughness whose range
         ``sqrt(3) roughness`` reaches 90 degrees.
     """
@@ -107,6 +120,7 @@ class Material:
     rolling_friction: float = DECLARATIONS["rolling_friction"].default
     tangential_damping: float = DECLARATIONS["tangential_damping"].default
     roughness: float = DECLARATIONS["roughness"].default
+    work_of_adhesion: float = DECLARATIONS["work_of_adhesion"].default
     roughness_distribution: str = DECLARATIONS["roughness_distribution"].default
     shadow: str = DECLARATIONS["shadow"].default
     name: str | None = field(default=None)
@@ -138,6 +152,9 @@ class Material:
                     continue
                 value = DECLARATIONS["poisson_ratio"].default
             set_(self, name, _check_field(name, value))
+        if not hertz and self.work_of_adhesion > 0:
+            raise ValueError(f"work_of_adhesion={self.work_of_adhesion!r} needs youngs_modulus "
+                             "(adhesion is offered on Hertz's law)")
         _check_uniform_range(self.roughness_distribution, self.roughness)
         if self.name is not None and not isinstance(self.name, str):
             raise TypeError(f"name must be a string, got {self.name!r}")

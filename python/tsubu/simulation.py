@@ -142,6 +142,13 @@ class Simulation:
         the largest sphere speed (two spheres meeting head on), at least 1 m/s, measured when
         asked before the first run and fixed by the first run (until spheres are added), so
         that the default dt stays the same from one run to the next.
+    adhesion : {"jkr", "dmt"}
+        The adhesive normal law of a scene whose materials have a ``work_of_adhesion`` > 0
+        (unused otherwise). "jkr" (default): Johnson-Kendall-Roberts, a neck that holds the
+        contact to a negative overlap; "dmt": Derjaguin-Muller-Toporov, Hertz's force less a
+        constant pull while in contact (docs/physics.md). Adhesion is not offered with
+        roughness, ``hertz_force="repulsive"``, ``slip_rule="truncate"`` or
+        ``tangential_history="literal"`` (the first run raises ValueError).
     slip_rule : {"frozen", "truncate"}
         What a slipping contact does. "frozen" (default): the notes' (1.17)-(1.18), force
         ``mu abs(f_n)`` against the slip velocity, stored displacement kept. "truncate": LAMMPS's
@@ -182,7 +189,8 @@ class Simulation:
 
     def __init__(self, gravity=(0.0, 0.0, -9.81), dt=None, threads=None, seed: int = 0,
                  skin=None, tangential_history: str = "rotate", slip_rule: str = "frozen",
-                 hertz_force: str = "signed", impact_speed=None, max_overlap: float = 0.5,
+                 hertz_force: str = "signed", adhesion: str = "jkr", impact_speed=None,
+                 max_overlap: float = 0.5,
                  initial_overlap: float = 0.05, allow_unstable_dt: bool = False,
                  rebuild_every_step: bool = False, parallel_min: int = 2048):
         self._lock = threading.RLock()  # _one_thread_at_a_time
@@ -210,6 +218,7 @@ class Simulation:
                              f"{tangential_history!r}")
         self._core.slip_rule = slip_rule
         self._core.repulsive = _options.check("hertz_force", hertz_force) == "repulsive"
+        self._core.adhesion = _options.check("adhesion", adhesion)
         if impact_speed is not None:
             self._core.impact_speed = _options.check("impact_speed", impact_speed)
         self._scene_materials: list[Material] = []
@@ -311,11 +320,11 @@ class Simulation:
             The two materials (equal for the contacts of one material with itself).
         **overrides
             Any of ``kn``, ``kt``, ``restitution``, ``friction``, ``rolling_friction``,
-            ``tangential_damping``, ``roughness`` (degrees), ``roughness_distribution``,
-            ``shadow``, with the meaning, units and ranges of :class:`Material`, and, for two
-            Hertzian materials, ``effective_modulus`` (E* [Pa], > 0) and
-            ``effective_shear_modulus`` (G* [Pa], >= 0). Those not given keep their mixed value
-            (see :meth:`pair_parameters`).
+            ``tangential_damping``, ``roughness`` (degrees), ``work_of_adhesion``,
+            ``roughness_distribution``, ``shadow``, with the meaning, units and ranges of
+            :class:`Material`, and, for two Hertzian materials, ``effective_modulus`` (E* [Pa],
+            > 0) and ``effective_shear_modulus`` (G* [Pa], >= 0). Those not given keep their
+            mixed value (see :meth:`pair_parameters`).
 
         Raises
         ------
@@ -979,7 +988,8 @@ class Simulation:
             - ``i``: sphere id, int64, shape (M,);
             - ``j``: partner sphere id (-1 for a wall), int64, shape (M,);
             - ``wall``: wall index (-1 for a pair of spheres), int, shape (M,);
-            - ``overlap``: overlap [m], shape (M,);
+            - ``overlap``: overlap [m], shape (M,) (negative for a JKR contact held by its
+              adhesive neck, docs/physics.md);
             - ``force``: contact force on i [N], shape (M, 3) (the partner gets -force);
             - ``torque_i``: torque on i from this contact [N m], shape (M, 3);
             - ``tangential_displacement``: the stored tangential history [m], shape (M, 3)

@@ -42,8 +42,10 @@ class ContactStore {
   Array<Index> stash_wall_offset, stash_wall_index, stash_wall_element;
 
   // Moves the touching pair entries of rows `offset` (partners `partner`, internal indices)
-  // into the stash; `id` maps an internal index to its id.
-  void stash_pair_state(const Array<Index>& offset, const Array<Index>& partner, const Array<Id>& id);
+  // into the stash; `id` maps an internal index to its id; `law` says which entries touch
+  // (touching(), registry.hpp).
+  void stash_pair_state(const Array<Index>& offset, const Array<Index>& partner, const Array<Id>& id,
+                        const CompiledLaw& law);
 
   std::size_t bytes() const;
   std::size_t stash_bytes() const;

@@ -5,6 +5,7 @@
 #include <cmath>
 #include <vector>
 
+#include "contact/adhesive.hpp"
 #include "contact/damping.hpp"
 #include "contact/normal.hpp"
 #include "contact/rolling.hpp"
@@ -18,8 +19,10 @@ namespace tsubu {
 // One material: every sphere and every wall has one. Defaults: soda-lime glass beads at a soft
 // stiffness (the shared reference scene's).
 // A material with a Young's modulus > 0 is Hertzian (HertzNormal, Mindlin's tangential spring);
-// its kn, kt are then unused.
+// its kn, kt are then unused. A Hertzian material with a work of adhesion > 0 makes the scene
+// adhesive (JKR or DMT, Options::adhesion).
 struct Material : HookeNormal::Params,
+                  AdhesionParams,
                   RestitutionDamping::Properties,
                   FrictionParams,
                   RollingParams,
@@ -38,6 +41,7 @@ struct Material : HookeNormal::Params,
 // Parameters of one contact between two materials (or a material and a wall's material).
 struct PairParams : HookeNormal::Params,
                     HertzNormal::Params,
+                    AdhesionParams,
                     RestitutionDamping::Params,
                     HertzDamping::Params,
                     FrictionParams,
@@ -51,11 +55,13 @@ struct PairParams : HookeNormal::Params,
 };
 
 // The mixing rule (docs/physics.md), each law's own: stiffnesses as half-springs in series,
-// restitution and the friction coefficients by geometric mean, roughness in quadrature.
+// restitution, the friction coefficients and the work of adhesion by geometric mean, roughness in
+// quadrature.
 inline PairParams mix(const Material& a, const Material& b) {
   PairParams p;
   HookeNormal::mix(a, b, p);
   HertzParams::mix(a, b, p);
+  AdhesionParams::mix(a, b, p);
   RestitutionDamping::mix(a, b, p);
   HertzDamping::mix(a, b, p);
   FrictionParams::mix(a, b, p);

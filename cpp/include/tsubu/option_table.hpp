@@ -31,6 +31,8 @@ inline constexpr std::array<std::pair<const char*, HistoryRule>, 2> kHistoryRule
     {{"rotate", HistoryRule::Rotate}, {"literal", HistoryRule::Literal}}};
 inline constexpr std::array<std::pair<const char*, SlipRule>, 2> kSlipRuleNames{
     {{"frozen", SlipRule::Frozen}, {"truncate", SlipRule::Truncate}}};
+inline constexpr std::array<std::pair<const char*, AdhesionLaw>, 2> kAdhesionLawNames{
+    {{"jkr", AdhesionLaw::Jkr}, {"dmt", AdhesionLaw::Dmt}}};
 
 // Where an option is set (a bit mask): a Material field, a per-pair override
 // (Simulation::set_pair_parameters), or an option of the run (Options, Simulation's constructor).
@@ -152,6 +154,10 @@ inline constexpr OptionDeclaration kOptionTable[] = {
     option_detail::degrees(option_detail::real(
         "roughness", option_detail::kLaw, "degrees", 0, false, 90, true, 0, "0",
         "Standard deviation of the roughness scatter angle (docs/roughness.md).")),
+    option_detail::real("work_of_adhesion", option_detail::kLaw, "J/m^2", 0, false,
+                        option_detail::kInf, false, 0, "0",
+                        "Work of adhesion of two surfaces (2 x the surface energy) of a Hertzian "
+                        "material: JKR or DMT (docs/physics.md)."),
     option_detail::choice("roughness_distribution", option_detail::kLaw,
                           choice_names(kScatterDistributionNames), "\"normal\"",
                           "Distribution of the roughness tilt."),
@@ -183,6 +189,8 @@ inline constexpr OptionDeclaration kOptionTable[] = {
                           "\"rotate\"", "How the tangential displacement follows the contact."),
     option_detail::choice("slip_rule", kRun, choice_names(kSlipRuleNames), "\"frozen\"",
                           "What a slipping contact does."),
+    option_detail::choice("adhesion", kRun, choice_names(kAdhesionLawNames), "\"jkr\"",
+                          "Adhesive normal law of materials with a work_of_adhesion."),
     // Options::repulsive is true for "repulsive".
     option_detail::choice("hertz_force", kRun, ChoiceNames{"signed", "repulsive"}, "\"signed\"",
                           "Normal force of Hertzian materials."),

@@ -16,6 +16,9 @@ enum class HistoryRule { Rotate = 0, Literal = 1 };
 // against the slip velocity with the displacement frozen; or LAMMPS's, the spring force scaled
 // to the cap in its own direction with the displacement truncated (rotate history only).
 enum class SlipRule { Frozen = 0, Truncate = 1 };
+// The adhesive normal law of a scene whose Hertzian materials have a work of adhesion > 0
+// (contact/adhesive.hpp, docs/physics.md): JKR (a neck that holds to a negative overlap) or DMT.
+enum class AdhesionLaw { Jkr = 0, Dmt = 1 };
 
 struct Options {
   Vec3 gravity = Vec3(0, 0, -9.81);  // m/s^2
@@ -27,6 +30,7 @@ struct Options {
   double skin = 0;                   // m; 0: 0.2 x the mean diameter
   HistoryRule history = HistoryRule::Rotate;
   SlipRule slip = SlipRule::Frozen;
+  AdhesionLaw adhesion = AdhesionLaw::Jkr;
   double max_overlap = 0.5;          // instability if overlap > max_overlap x the smaller radius
   double initial_overlap = 0.05;     // refused at the first run if an overlap exceeds this x radius
   bool allow_unstable_dt = false;    // run with dt above critical_time_step()

@@ -12,6 +12,7 @@
 #include <tuple>
 #include <type_traits>
 
+#include "contact/adhesive.hpp"
 #include "contact/damping.hpp"
 #include "contact/normal.hpp"
 #include "contact/rolling.hpp"
@@ -40,11 +41,23 @@ struct TypeList {
 };
 
 // The evaluators each slot can hold (contact/*.hpp).
-using NormalLaws = TypeList<HookeNormal, HertzNormal>;
+using NormalLaws = TypeList<HookeNormal, HertzNormal, JkrNormal, DmtNormal>;
 using DampingLaws = TypeList<RestitutionDamping, HertzDamping>;
 using TangentialLaws = TypeList<NoTangential, TangentialRotate, TangentialLiteral,
                                 TangentialRotateTruncate, MindlinRotate, MindlinRotateTruncate>;
 using RollingLaws = TypeList<NoRolling, RollingFriction>;
+// The adhesive normal laws, in the order of the options' AdhesionLaw (jkr, dmt): a scene whose
+// Hertzian materials have a work of adhesion takes one (contact/selection.hpp).
+struct AdhesiveNormalLaws {
+  using List = TypeList<JkrNormal, DmtNormal>;
+  static constexpr std::size_t size = List::size;
+  // Index k of this list as an index into NormalLaws.
+  static std::size_t index(std::size_t k) {
+    constexpr std::size_t at[] = {NormalLaws::index_of<List::at<0>>(), NormalLaws::index_of<List::at<1>>()};
+    static_assert(List::size == 2);
+    return k < size ? at[k] : NormalLaws::size;
+  }
+};
 using RoughnessLaws = TypeList<NoRoughness, StochasticRoughness>;
 
 // The normal, damping and tangential laws that belong together (a Hertzian spring with the
@@ -62,7 +75,11 @@ using CoreLaws = TypeList<Core<HookeNormal, RestitutionDamping, NoTangential>,
                           Core<HookeNormal, RestitutionDamping, TangentialRotateTruncate>,
                           Core<HertzNormal, HertzDamping, NoTangential>,
                           Core<HertzNormal, HertzDamping, MindlinRotate>,
-                          Core<HertzNormal, HertzDamping, MindlinRotateTruncate>>;
+                          Core<HertzNormal, HertzDamping, MindlinRotateTruncate>,
+                          // adhesive Hertzian laws: always with Mindlin's spring (mu = 0 gives
+                          // no tangential force), frozen slip
+                          Core<JkrNormal, HertzDamping, MindlinRotate>,
+                          Core<DmtNormal, HertzDamping, MindlinRotate>>;
 
 // A scene's choice: one index per slot, into the lists above.
 struct LawKey {
@@ -82,9 +99,18 @@ struct CompiledLaw {
   double (*elastic_force)(const PairParams&, double overlap, double r_eff);  // no dashpot
   double (*tangential_energy)(const PairParams&, const double* history);
   double (*tangential_stiffness)(const PairParams&, const double* history);  // 0: no spring
+  // The largest separation a touching contact of reduced radius r_eff survives: 0 unless the
+  // normal law is sticky (contact/normal.hpp), whose contacts hold at negative overlap.
+  double (*separation)(const PairParams&, double r_eff);
   int entry_width, history_width, rough_width;
-  bool torque, rolling;
+  bool torque, rolling, sticky;
 };
+
+// Whether a stored entry with this overlap touches: overlap > 0, or, under a sticky law, any
+// overlap a touching contact stores (an entry that does not touch stores 0).
+inline bool touching(const CompiledLaw& law, double overlap) {
+  return overlap > 0 || (law.sticky && overlap != 0);
+}
 
 const CompiledLaw& find_law(const LawKey& key);
 // How many specialisations the library holds.

@@ -143,7 +143,7 @@ def _build_spec() -> Table:
         "seed": _option("seed"),
         "threads": _option("threads", "OpenMP threads (`tsubu run --threads` overrides it)."),
         **{name: _option(name) for name in ("parallel_min", "skin", "tangential_history", "slip_rule",
-                                            "hertz_force", "impact_speed", "max_overlap",
+                                            "hertz_force", "adhesion", "impact_speed", "max_overlap",
                                             "initial_overlap", "allow_unstable_dt",
                                             "rebuild_every_step")},
     }, doc="The simulation's options (tsubu.Simulation) and how long to run.",

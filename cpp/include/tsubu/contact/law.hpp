@@ -22,6 +22,29 @@ struct ContactLaw {
   using History = typename Tangential::History;
   static constexpr bool has_history = Tangential::enabled;
   static constexpr int history_width = Tangential::history_width;
+  // A sticky normal law's contact survives to a negative overlap (contact/normal.hpp): an entry
+  // that does not touch starts to at delta > 0; one that touches keeps touching while
+  // delta > -separation.
+  static constexpr bool kSticky = Normal::kSticky;
+  // The largest separation a touching contact of reduced radius r_eff survives (0 if not sticky).
+  static double separation(const PairParams& p, double r_eff) {
+    if constexpr (kSticky) return Normal::separation(p, r_eff);
+    (void)p, (void)r_eff;
+    return 0;
+  }
+  // The same from an entry's terms (entry_terms()); for the loop.
+  TSUBU_INLINE static double entry_separation(const double* e) {
+    if constexpr (kSticky) return Normal::entry_separation(e);
+    (void)e;
+    return 0;
+  }
+  // What the normal spring of a sticky contact holds at overlap delta, from the packed
+  // parameters q and the entry's terms e: lost when the contact breaks (0 if not sticky).
+  static double lane_energy(const double* q, const double* e, double delta) {
+    if constexpr (kSticky) return Normal::lane_energy(q, e, delta);
+    (void)q, (void)e, (void)delta;
+    return 0;
+  }
   // A tilted normal gives torque even without friction.
   static constexpr bool has_torque = Tangential::enabled || Rolling::enabled || Roughness::enabled;
 
@@ -45,6 +68,9 @@ struct ContactLaw {
   // is in the near list (the loop keeps them per entry): the normal law's, then the damping
   // law's. lane() turns them into the force at an overlap.
   static constexpr int kEntryTerms = Normal::kEntryTerms + Damping::kEntryTerms;
+  static constexpr bool kForceReadsEntry =
+      std::is_invocable_v<decltype(&Normal::force), const double*, const double*, const NormalState&,
+                          double, double, double, double&>;
   static void entry_terms(const PairParams& p, double m_eff, double r_eff, double* e) {
     Normal::entry_terms(p, r_eff, e);
     Damping::entry_terms(p, m_eff, e + Normal::kEntryTerms);
@@ -59,7 +85,11 @@ struct ContactLaw {
                                   L3& n_cross_ft, double& power) {
     const NormalState s = Normal::state(q, e, delta);
     const double eta_n = Damping::lane(e + Normal::kEntryTerms, s);
-    const double fn = Normal::force(q, s, delta, eta_n, vn, power);
+    double fn;
+    if constexpr (kForceReadsEntry)  // a law whose force reads the entry's terms (DMT's F_c)
+      fn = Normal::force(q, e, s, delta, eta_n, vn, power);
+    else
+      fn = Normal::force(q, s, delta, eta_n, vn, power);
     force = fn * n;
     if constexpr (Tangential::enabled) {
       const double* t = q + kNormalParams;  // the tangential law's packed parameters

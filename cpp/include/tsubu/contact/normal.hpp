@@ -1,5 +1,13 @@
 // Normal elastic laws. A normal law owns its parameters and their mixing rule, its force in lane
-// form, its elastic energy and the stiffness the time-step bounds use.
+// form, its elastic energy and the stiffness the time-step bounds use. (The adhesive laws, JKR and
+// DMT, are in adhesive.hpp.)
+//
+// A law whose contact, once made, survives to a negative overlap (an adhesive neck, JKR) says so
+// with kSticky = true and gives the largest separation a touching contact survives
+// (separation(), and entry_separation() from the entry's terms), and the energy its normal
+// spring holds from the lane's parameters (lane_energy(), booked as dissipated when the contact
+// breaks). A non-sticky law (kSticky = false) touches exactly while delta > 0, and the loop
+// compiles to the same instructions as before the hook existed.
 //
 // In a lane a normal law first measures its state at the overlap (state(): the tangent stiffness
 // S_n = dF/d delta the damping and time-step laws read, and the contact size a tangential law may
@@ -30,6 +38,7 @@ struct ContactScale {
 // Linear spring f = k_n delta (1.6).
 struct HookeNormal {
   static constexpr const char* name = "hooke";
+  static constexpr bool kSticky = false;  // touches while delta > 0
   struct Params {
     double kn = 0;  // N/m
   };
@@ -96,6 +105,7 @@ struct HertzParams {
 
 struct HertzNormal {
   static constexpr const char* name = "hertz";
+  static constexpr bool kSticky = false;  // touches while delta > 0
   using Params = HertzParams;
 
   // Lanes read E* and the floor; an entry keeps sqrt(R*) (its radii do not change).

@@ -86,6 +86,7 @@ struct Blocked {
     const Index *const own = c.own, *const par = c.par;
     const double *const r = c.r, *const v = c.v, *const w = c.w, *const cut2 = c.cut2;
     const double *const entry = c.entry, *const history = c.xi;
+    const std::uint8_t* const touch = c.touch;
     const double limit = c.limit;
     double most = excess;
     for (int a = 0; a < len; ++a) {
@@ -100,7 +101,9 @@ struct Blocked {
         const L3 spin = C::spin_part(ci, lanes(vec3(w, i)), cj, lanes(vec3(w, j)));
         b.spx[a] = spin.x, b.spy[a] = spin.y, b.spz[a] = spin.z;
       }
-      const bool inside = dist2 < cut2[q];  // (1.10); else the contact has just opened
+      bool inside = dist2 < cut2[q];  // (1.10); else the contact has just opened
+      if constexpr (Law::kSticky)  // a touching contact holds to delta > -separation
+        if (touch[q]) inside = delta > -Law::entry_separation(entry + kEntry * q);
       b.inside[a] = inside;
       if (inside) most = std::max(most, delta - limit * std::min(ri, rj));
       b.delta[a] = delta;
@@ -191,6 +194,12 @@ struct Blocked {
   // (r by value: a reference would make the caller keep its pointers in memory, reloaded after
   // every byte store.)
   [[gnu::noinline]] static void end_lane(Results r, Index q, const Block& b, int a, double& lost) {
+    if constexpr (Law::kSticky) {  // the normal spring's energy at its last overlap is lost
+      double p[kParams], e[kEntry];
+      for (int k = 0; k < kParams; ++k) p[k] = b.param[k][a];
+      for (int k = 0; k < kEntry; ++k) e[k] = b.entry[k][a];
+      lost += Law::lane_energy(p, e, r.overlap[q]);
+    }
     C::template end<F::kTangential>(r, q, b.param_column_tangential(a).data(), lost);  // (no roughness here)
   }
 
@@ -226,7 +235,13 @@ struct Blocked {
       const double ri = c.r[i];
       const double delta = P.overlap(xi_pos, ri);  // (3.1), signed: a half-space
       const Vec3& n = P.normal_at(xi_pos);
-      b.inside[a] = delta > 0;
+      double terms[kEntry];
+      if constexpr (Law::kSticky) {  // a touching contact holds to delta > -separation
+        Law::entry_terms(p, c.m[i], ri, terms);  // (a wall: R* = r_i, m* = m_i)
+        b.inside[a] = delta > (c.wtouch[e[a]] ? -Law::entry_separation(terms) : 0.0);
+      } else {
+        b.inside[a] = delta > 0;
+      }
       if (b.inside[a]) excess = std::max(excess, delta - c.limit * ri);
       double ci;
       Vec3 vt = Vec3::Zero();
@@ -234,8 +249,7 @@ struct Blocked {
       b.nx[a] = n.x(), b.ny[a] = n.y(), b.nz[a] = n.z();
       b.vtx[a] = vt.x(), b.vty[a] = vt.y(), b.vtz[a] = vt.z();
       b.delta[a] = delta, b.vn[a] = vn;
-      double terms[kEntry];
-      Law::entry_terms(p, c.m[i], ri, terms);  // (a wall: R* = r_i, m* = m_i)
+      if constexpr (!Law::kSticky) Law::entry_terms(p, c.m[i], ri, terms);  // (a wall: R* = r_i, m* = m_i)
       for (int k = 0; k < kEntry; ++k) b.entry[k][a] = terms[k];
       b.put_params(a, p);
       if constexpr (F::kHistory) {

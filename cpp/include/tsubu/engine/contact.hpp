@@ -86,10 +86,21 @@ struct Contacts {
     end<kMoment>(r, e, q, lost);
   }
 
-  // Ends a pair contact; a rough pair also loses what its facet spring still holds.
+  // What the normal spring of a sticky law's contact held at its last overlap, from the
+  // parameters and the entry's terms: lost when it breaks (kSticky laws only).
+  static double sticky_energy(const PairParams& p, const double* e, double overlap) {
+    double q[Law::kLaneParams > 0 ? Law::kLaneParams : 1];
+    Law::pack(p, q);
+    return Law::lane_energy(q, e, overlap);
+  }
+
+  // Ends a pair contact; a rough pair also loses what its facet spring still holds, a sticky
+  // one what its normal spring held.
   static double end_pair(const ContactView& c, Index q, const PairParams& params, const Vec3& d,
                          double rs, double dist2) {
     double lost = 0;
+    if constexpr (Law::kSticky)
+      lost += sticky_energy(params, c.entry + Law::kEntryTerms * q, c.overlap[q]);
     end<kPairMoment>(pair_results(c), q, params, lost);
     if constexpr (F::kRough) {
       if (params.roughness > 0) {  // a facet spring still loaded is lost with it
@@ -112,7 +123,13 @@ struct Contacts {
     const double rs = ri + rj;
     const double dist2 = dot(lanes(d), lanes(d));
     const PairParams& params = (*c.table)(c.mat[i], c.mat[j]);
-    if (dist2 >= c.cut2[q]) return end_pair(c, q, params, d, rs, dist2);  // (1.10)
+    if constexpr (Law::kSticky) {  // a touching contact holds to delta > -separation
+      const double sep = Law::entry_separation(c.entry + Law::kEntryTerms * q);
+      if (c.touch[q] ? !(pair_overlap(ri, rj, dist2, inv_dist) > -sep) : dist2 >= c.cut2[q])
+        return c.touch[q] ? end_pair(c, q, params, d, rs, dist2) : 0.0;
+    } else {
+      if (dist2 >= c.cut2[q]) return end_pair(c, q, params, d, rs, dist2);  // (1.10)
+    }
     ContactGeometry g;
     const double overlap = pair_overlap(ri, rj, dist2, inv_dist);
     g.delta = overlap;
@@ -206,17 +223,29 @@ struct Contacts {
                          c.wrough + F::kRoughWidth * e, stream, dt, n, delta);
       }
     }
-    if (delta <= 0) {
-      double lost = 0;
-      if (c.wtouch[e]) end<kWallMoment>(wall_results(c), e, params, lost);
-      return lost;
-    }
     ContactGeometry g;
+    if constexpr (Law::kSticky) {  // a touching contact holds to delta > -separation
+      Law::entry_terms(params, c.m[i], ri, g.entry);  // (a wall: R* = r_i, m* = m_i)
+      if (!(delta > (c.wtouch[e] ? -Law::entry_separation(g.entry) : 0.0))) {
+        double lost = 0;
+        if (c.wtouch[e]) {
+          lost += sticky_energy(params, g.entry, c.woverlap[e]);
+          end<kWallMoment>(wall_results(c), e, params, lost);
+        }
+        return lost;
+      }
+    } else {
+      if (delta <= 0) {
+        double lost = 0;
+        if (c.wtouch[e]) end<kWallMoment>(wall_results(c), e, params, lost);
+        return lost;
+      }
+    }
     g.n = n;
     g.delta = delta;
     excess = std::max(excess, delta - c.limit * ri);
     g.m_eff = c.m[i];
-    Law::entry_terms(params, g.m_eff, ri, g.entry);  // (a wall: R* = r_i)
+    if constexpr (!Law::kSticky) Law::entry_terms(params, g.m_eff, ri, g.entry);  // (a wall: R* = r_i)
     g.cj = 0;
     g.vn = wall_approach(c, P, i, n, delta, g.ci, g.vt);
     if constexpr (F::kRolling) {
