@@ -11,7 +11,7 @@ import json
 import numpy as np
 
 from . import _core
-from .checkpoint import CheckpointError
+from .checkpoint import CheckpointError, _restore_inserters
 
 
 def load(payload: bytes, path, threads=None):
@@ -65,13 +65,7 @@ def _restore(arrays: dict, meta: dict, threads=None):
                 "widths": meta["contact_widths"][kind]}
         core.set_contact_state(state["pair"], state["wall"])
         core.set_run_state(meta["run_state"])
-        if meta["inserters"]:
-            from .insert import Inserter
-            for saved in meta["inserters"]:
-                inserter = Inserter._from_config(saved["config"], sim)
-                inserter._attach(sim)
-                inserter._restore(saved["state"])
-                sim._inserters.append(inserter)
+        _restore_inserters(sim, meta["inserters"])
         sim.metadata = meta["metadata"]
     except CheckpointError:
         raise

@@ -147,6 +147,18 @@ def load(path, threads=None):
     return _restore(payload, path, threads)
 
 
+def _restore_inserters(sim, saved_inserters: list) -> None:
+    """Re-attach the inserters a checkpoint saved (their configuration and progress) to ``sim``."""
+    if not saved_inserters:
+        return
+    from .insert import Inserter
+    for saved in saved_inserters:
+        inserter = Inserter._from_config(saved["config"], sim)
+        inserter._attach(sim)
+        inserter._restore(saved["state"])
+        sim._inserters.append(inserter)
+
+
 def _restore(payload: bytes, path, threads=None):
     """A new Simulation from a format-2 payload."""
     from .material import Material
@@ -170,13 +182,7 @@ def _restore(payload: bytes, path, threads=None):
             sim._material_index[id(m)] = index
             sim._materials.append(m)
         sim._scene_materials = [sim._materials[k] for k in meta["scene_materials"]]
-        if meta["inserters"]:
-            from .insert import Inserter
-            for saved in meta["inserters"]:
-                inserter = Inserter._from_config(saved["config"], sim)
-                inserter._attach(sim)
-                inserter._restore(saved["state"])
-                sim._inserters.append(inserter)
+        _restore_inserters(sim, meta["inserters"])
         sim.metadata = meta["metadata"]
         if threads is not None:
             sim.threads = threads
