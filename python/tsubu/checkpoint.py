@@ -52,10 +52,15 @@ def write_atomically(path: Path, data: bytes) -> None:
     """Write ``data`` (bytes) to ``path`` (a str or path) so that the file is, at every moment, either the old one or
     the complete new one: a temporary file in the same folder, flushed and fsync'ed, renamed
     over ``path``, and the folder fsync'ed so that the rename itself survives a crash.
-    OSError when the file cannot be written (``path`` is then left as it was)."""
+    OSError when the file cannot be written (``path`` is then left as it was); when the
+    folder does not exist (FileNotFoundError), is not a folder (NotADirectoryError) or cannot be
+    written into, the error's message and ``filename`` name ``path``, not the temporary file."""
     path = Path(path)
     folder = path.parent if str(path.parent) else Path(".")
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=folder)
+    try:
+        fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=folder)
+    except OSError as e:
+        raise _folder_error(e, path, folder) from None
     try:
         with os.fdopen(fd, "wb") as f:
             f.write(data)
@@ -69,6 +74,21 @@ def write_atomically(path: Path, data: bytes) -> None:
             pass
         raise
     sync_folder(folder)
+
+
+def _folder_error(error: OSError, path: Path, folder: Path) -> OSError:
+    """The OSError of a file that could not be created in ``folder``, said of ``path`` (the file
+    asked for) rather than of the temporary file beside it."""
+    if error.errno is None:
+        return error
+    if isinstance(error, FileNotFoundError):
+        why = f"cannot write the file: the directory {str(folder)!r} does not exist (create it first)"
+    elif isinstance(error, NotADirectoryError):
+        why = f"cannot write the file: {str(folder)!r}, or a folder above it, is not a directory"
+    else:
+        why = f"cannot write the file in the directory {str(folder)!r}: {error.strerror or error}"
+    # str() of the error: "[Errno 2] cannot write the file: the directory ... : '<path>'"
+    return type(error)(error.errno, why, str(path))
 
 
 def sync_folder(folder) -> None:
