@@ -781,10 +781,10 @@ class Simulation:
             now = self._core.step_count
             target = end
             for hook in everything:
-                due = hook.next_step(self)
+                due = hooks.due_step(hook, self)
                 if due is not None and due <= now:
                     hook.act(self)
-                    due = hook.next_step(self)
+                    due = hooks.due_step(hook, self)
                     if due is not None and due <= now:
                         raise RuntimeError(f"run hook {hook!r} acted at step {now} and asks for step "
                                            f"{due} again: next_step must move on after act")
@@ -864,7 +864,8 @@ class Simulation:
         TypeError
             ``path`` is not a path, or ``metadata`` is not a JSON-able dict.
         OSError
-            The file cannot be written (the old file, if any, is left as it was).
+            The file cannot be written (the old file, if any, is left as it was); a missing
+            directory gives FileNotFoundError naming ``path`` and the directory.
         """
         from . import checkpoint
 
