@@ -95,9 +95,10 @@ struct ContactLaw {
     if constexpr (Tangential::enabled) {
       const double* t = q + kNormalParams;  // the tangential law's packed parameters
       Tangential::follow(t, s, dt, xi, aux, power);
-      const L3 prev = cross(n_cross_ft, n);  // last step's F_t in this tangent plane
+      // last step's F_t, turned into this tangent plane, on this step's v_t: (n' x F) x n . v_t
+      const double prev_work = dot(n_cross_ft, cross(n, vt));
       const L3 ft = Tangential::lane(n, vt, Tangential::stiffness(t, s), Tangential::damping(t, eta_n),
-                                     Tangential::cap(t, fn), dt, prev, xi, power);
+                                     Tangential::cap(t, fn), dt, prev_work, xi, power);
       force = force + ft;
       n_cross_ft = cross(n, ft);
     } else {
