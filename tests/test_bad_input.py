@@ -199,6 +199,131 @@ def test_sphere_overlapping_a_wall_is_refused(ref_sim, ref_material):
     assert ref_sim.step_count == 0
 
 
+# ---- overlaps made after the first run (checked at the next run) ------------------------------
+
+def two_apart(sim, material):
+    """Spheres 0 and 1 on the floor (wall 0), 4 radii apart, after a first run of 10 steps."""
+    sim.add_plane(point=(0.0, 0.0, 0.0), normal=(0.0, 0.0, 1.0), material=material)
+    sim.add_spheres([(0.0, 0.0, R), (4 * R, 0.0, R)], R, material)
+    sim.run(steps=10)
+    return sim
+
+
+@pytest.mark.parametrize("depth", [0.2, 0.6])
+def test_a_sphere_added_after_the_first_run_into_another_is_refused(ref_sim, ref_material, depth):
+    """A sphere added after the first run overlapping sphere 0 by 0.2 r (which used to fly off
+    at 2.6 m/s) or 0.6 r (which used to raise an InstabilityError blaming the time step): the
+    next run raises the first run's ValueError, naming both spheres and the one added, takes
+    no step and moves nothing, and runs once the sphere is moved clear."""
+    sim = two_apart(ref_sim, ref_material)
+    x0 = sim.positions
+    sim.add_sphere((-(2 - depth) * R, 0.0, sim.positions[0, 2]), R, ref_material)
+    for _ in range(2):  # still refused
+        with pytest.raises(ValueError, match=r"initial overlap: spheres 0 and 2 overlap by .* "
+                                             rf"\({depth:g} of the smaller radius; tolerance 0\.05\)"
+                                             r".*sphere 2 was added since the last run"):
+            sim.run(steps=5)
+        assert sim.step_count == 10
+        np.testing.assert_array_equal(sim.positions[:2], x0)
+    sim.positions = np.vstack([x0, [(-3 * R, 0.0, x0[0, 2])]])
+    sim.run(steps=5)
+    assert sim.step_count == 15 and np.abs(sim.velocities).max() < 1e-2
+
+
+def test_add_spheres_after_the_first_run_is_checked_against_walls_and_each_other(ref_sim, ref_material):
+    sim = two_apart(ref_sim, ref_material)
+    sim.add_spheres([(10 * R, 0.0, 0.8 * R)], R, ref_material)  # 0.2 r into the floor
+    with pytest.raises(ValueError, match=r"sphere 2 overlaps wall 0 by .*\(0\.2 of its radius.*"
+                                         r"sphere 2 was added since the last run"):
+        sim.run(steps=1)
+    sim.positions = np.vstack([sim.positions[:2], [(10 * R, 0.0, 1.5 * R)]])
+    sim.run(steps=1)
+    # two new spheres overlapping each other
+    sim.add_spheres([(20 * R, 0.0, 3 * R), (21.8 * R, 0.0, 3 * R)], R, ref_material)
+    with pytest.raises(ValueError, match=r"spheres 3 and 4 overlap by .*\(0\.2 of the smaller"):
+        sim.run(steps=1)
+
+
+def test_a_sphere_moved_after_the_first_run_into_another_or_a_wall_is_refused(ref_sim, ref_material):
+    sim = two_apart(ref_sim, ref_material)
+    x = sim.positions.copy()
+    x[1, 0] = x[0, 0] + 1.8 * R
+    sim.positions = x
+    with pytest.raises(ValueError, match=r"spheres 0 and 1 overlap by .*\(0\.2 of the smaller.*"
+                                         r"sphere 1 was moved since the last run"):
+        sim.run(steps=1)
+    x[1] = (4 * R, 0.0, 0.7 * R)
+    sim.positions = x
+    with pytest.raises(ValueError, match=r"sphere 1 overlaps wall 0 by .*\(0\.3 of its radius.*"
+                                         r"sphere 1 was moved since the last run"):
+        sim.run(steps=1)
+    x[1] = (4 * R, 0.0, R)
+    sim.positions = x
+    sim.run(steps=1)
+
+
+def test_a_wall_added_after_the_first_run_through_a_sphere_is_refused(ref_sim, ref_material):
+    sim = two_apart(ref_sim, ref_material)
+    sim.add_plane(point=(4.9 * R, 0.0, 0.0), normal=(-1.0, 0.0, 0.0), material=ref_material)
+    with pytest.raises(ValueError, match=r"sphere 1 overlaps wall 1 by .*\(0\.1 of its radius.*"
+                                         r"wall 1 was added since the last run"):
+        sim.run(steps=1)
+
+
+def test_a_pack_moved_as_a_whole_keeps_its_overlaps(ref_material):
+    """Two spheres that a run pressed together beyond initial_overlap, moved together (or a
+    third sphere moved, or added clear): the next run accepts their overlap, which the change
+    did not deepen; pushing one deeper into the other is refused."""
+    sim = tsubu.Simulation(gravity=(0.0, 0.0, 0.0), dt=1e-6, threads=1)
+    v = 2.0  # m/s: a head-on impact that overlaps the pair by about 0.15 r at its deepest
+    sim.add_spheres([(-1.01 * R, 0.0, 0.0), (1.01 * R, 0.0, 0.0), (10 * R, 0.0, 0.0)], R,
+                    ref_material, velocities=[(v, 0.0, 0.0), (-v, 0.0, 0.0), (0.0, 0.0, 0.0)])
+    for _ in range(40):
+        sim.run(steps=1)
+        if sim.contacts()["overlap"].size and sim.contacts()["overlap"].max() > 0.1 * R:
+            break
+    assert sim.contacts()["overlap"].max() > 0.1 * R
+    x = sim.positions
+    sim.positions = x + (1.0, -2.0, 0.5)
+    sim.run(steps=1)
+    sim.add_sphere((0.0, 10 * R, 0.0), R, ref_material)
+    sim.run(steps=1)
+    x = sim.positions.copy()
+    x[1, 0] -= 0.1 * R
+    sim.positions = x
+    with pytest.raises(ValueError, match=r"spheres 0 and 1 overlap.*sphere 1 was moved"):
+        sim.run(steps=1)
+
+
+def test_an_unchecked_change_survives_save_and_load(ref_sim, ref_material, tmp_path):
+    """A sphere added into another and saved before the run that would refuse it: the loaded
+    Simulation refuses it too."""
+    sim = two_apart(ref_sim, ref_material)
+    sim.add_sphere((-1.8 * R, 0.0, sim.positions[0, 2]), R, ref_material)
+    loaded = tsubu.Simulation.load(sim.save(tmp_path / "ck.tsubu"))
+    with pytest.raises(ValueError, match=r"spheres 0 and 2 overlap.*sphere 2 was added"):
+        loaded.run(steps=1)
+    sim = two_apart(tsubu.Simulation(dt=1e-6, threads=1), ref_material)
+    sim.add_plane(point=(0.0, 0.0, 0.5 * R), normal=(0.0, 0.0, 1.0), material=ref_material)
+    loaded = tsubu.Simulation.load(sim.save(tmp_path / "ck2.tsubu"))
+    with pytest.raises(ValueError, match=r"sphere 0 overlaps wall 1.*wall 1 was added"):
+        loaded.run(steps=1)
+
+
+def test_spheres_an_inserter_places_are_not_checked_at_later_runs(ref_material):
+    """An inserter whose region reaches 0.3 r into the floor: its spheres go in during the run
+    (as before), not refused at the next piece of the run (inserters place their spheres clear
+    of the others themselves; walls they leave to the user)."""
+    sim = tsubu.Simulation(gravity=(0.0, 0.0, -9.81), dt=1e-6, threads=1)
+    sim.add_plane(point=(0.0, 0.0, 0.0), normal=(0.0, 0.0, 1.0), material=ref_material)
+    sim.add_sphere((0.0, 0.0, 20 * R), R, ref_material)
+    region = tsubu.fill.Box((-0.2 * R, -10 * R, -0.3 * R), (10 * R, 10 * R, 1.8 * R))
+    inserter = sim.add_inserter(region, rate=1e5, sizes=R, material=ref_material, interval=1e-5,
+                                total=3, start=2e-5)
+    sim.run(steps=60)
+    assert inserter.inserted == 3 and sim.size == 4
+
+
 # ---- time step and run() -----------------------------------------------------------------------
 
 @pytest.mark.parametrize("dt, pattern", [(0.0, r"dt.*0\.0"), (-1e-6, r"dt.*-1e-06"),
