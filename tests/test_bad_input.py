@@ -439,3 +439,87 @@ def test_set_pair_checks_its_parameters(ref_sim, ref_material):
     # nothing was overridden: the harmonic mean of kn stays
     assert ref_sim.pair_parameters(ref_material, other)["kn"] == pytest.approx(
         2 * 1000.0 * 2000.0 / 3000.0, rel=1e-12)
+
+
+# ---- returned arrays are read-only (an edit raises, instead of changing a copy) ---------------
+
+STATE_ARRAYS = ["positions", "velocities", "angular_velocities", "radii", "masses", "forces",
+                "torques", "gravity", "material_ids"]
+
+
+@pytest.mark.parametrize("name", STATE_ARRAYS)
+def test_writing_into_a_returned_array_raises(ref_sim, ref_material, name):
+    """sim.positions[0, 2] = 99 used to edit a copy silently; now it raises ValueError, and the
+    Simulation is as it was (the setter is the way to change it)."""
+    ref_sim.add_spheres([(0.0, 0.0, R), (4 * R, 0.0, R)], R, ref_material)
+    ref_sim.run(steps=2)
+    before = getattr(ref_sim, name).copy()
+    array = getattr(ref_sim, name)
+    with pytest.raises(ValueError, match="read-only"):
+        array[0] = 99
+    with pytest.raises(ValueError, match="read-only"):
+        array += 1
+    np.testing.assert_array_equal(getattr(ref_sim, name), before)
+    edited = array.copy()  # (a copy is writable: edit it, then assign it)
+    edited[0] = 0
+
+
+def test_plane_arrays_are_read_only(ref_sim, ref_material):
+    wall = ref_sim.add_plane(point=(0.0, 0.0, 0.0), normal=(0.0, 0.0, 1.0), material=ref_material,
+                             velocity=(0.1, 0.0, 0.0))
+    state = ref_sim.plane(wall)
+    for key in ("point", "normal", "velocity", "angular_velocity"):
+        with pytest.raises(ValueError, match="read-only"):
+            state[key][2] = 99
+    np.testing.assert_array_equal(ref_sim.plane(wall)["normal"], (0.0, 0.0, 1.0))
+    np.testing.assert_array_equal(ref_sim.plane(wall)["velocity"], (0.1, 0.0, 0.0))
+
+
+def test_setters_take_the_read_only_arrays(ref_sim, ref_material):
+    """A returned array, or one computed from it, is what the setters take."""
+    ref_sim.add_spheres([(0.0, 0.0, R), (4 * R, 0.0, R)], R, ref_material)
+    ref_sim.positions = ref_sim.positions + (0.0, 0.0, R)
+    ref_sim.velocities = ref_sim.velocities
+    ref_sim.gravity = ref_sim.gravity
+    assert ref_sim.positions[0, 2] == 2 * R
+
+
+# ---- booleans are not numbers ------------------------------------------------------------------
+
+@pytest.mark.parametrize("call, name", [
+    (lambda s, m: s.add_sphere((0.0, 0.0, True), R, m), "position"),
+    (lambda s, m: s.add_sphere((0.0, 0.0, 1.0), R, m, velocity=[0, False, 0]), "velocity"),
+    (lambda s, m: s.add_sphere((0.0, 0.0, 1.0), R, m, angular_velocity=(np.True_, 0, 0)),
+     "angular_velocity"),
+    (lambda s, m: s.add_spheres([(0.0, 0.0, 1.0), (0.0, 0.0, True)], R, m), "positions"),
+    (lambda s, m: s.add_spheres(np.zeros((1, 3), dtype=bool), R, m), "positions"),
+    (lambda s, m: s.add_spheres([(0.0, 0.0, 1.0)], [True], m), "radius"),
+    (lambda s, m: s.add_spheres([(0.0, 0.0, 1.0)], True, m), "radius"),
+    (lambda s, m: s.add_spheres([(0.0, 0.0, 1.0)], R, m, velocities=[[0, 0, True]]), "velocities"),
+    (lambda s, m: s.add_plane(point=(0, 0, True), material=m), "point"),
+    (lambda s, m: s.add_plane(normal=(0, 0, True), material=m), "normal"),
+    (lambda s, m: s.add_plane(coefficients=(0, 0, 1, False), material=m), "coefficients"),
+    (lambda s, m: s.add_plane(material=m, velocity=(True, 0, 0)), "velocity"),
+    (lambda s, m: setattr(s, "gravity", (0, 0, True)), "gravity"),
+    (lambda s, m: tsubu.Simulation(gravity=[0.0, 0.0, np.True_]), "gravity"),
+])
+def test_booleans_in_numeric_vectors_are_refused(ref_sim, ref_material, call, name):
+    """add_sphere((0, 0, True)) used to put the sphere at z = 1 m: a bool where a number is
+    expected is a TypeError naming the argument."""
+    with pytest.raises(TypeError, match=rf"^{name} must .*(bool|True|False)"):
+        call(ref_sim, ref_material)
+    assert ref_sim.size == 0 and ref_sim.plane_count == 0
+    np.testing.assert_array_equal(ref_sim.gravity, (0.0, 0.0, -9.81))
+
+
+def test_booleans_in_state_setters_are_refused(ref_sim, ref_material):
+    ref_sim.add_spheres([(0.0, 0.0, R), (4 * R, 0.0, R)], R, ref_material)
+    x = ref_sim.positions
+    for name in ("positions", "velocities", "angular_velocities"):
+        with pytest.raises(TypeError, match=rf"^{name} must .*True"):
+            setattr(ref_sim, name, [[0.0, 0.0, 1.0], [0.0, 0.0, True]])
+    wall = ref_sim.add_plane(material=ref_material)
+    with pytest.raises(TypeError, match=r"^velocity must .*True"):
+        ref_sim.set_plane_motion(wall, velocity=(0, 0, True))
+    np.testing.assert_array_equal(ref_sim.positions, x)
+    np.testing.assert_array_equal(ref_sim.plane(wall)["velocity"], (0.0, 0.0, 0.0))
