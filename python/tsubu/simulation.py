@@ -956,7 +956,7 @@ class Simulation:
 
     @property
     def positions(self) -> np.ndarray:
-        """Centre positions [m], shape (N, 3), row = id: a read-only copy. Assigning moves the
+        """Centre positions [m], shape (N, 3), row = id, a read-only copy. Assigning moves the
         spheres (``sim.positions = x``); spheres moved after the first run are checked for
         overlaps when the next run starts, as the first run checks all (``initial_overlap``)."""
         return _read_only(self._core.positions())
