@@ -524,8 +524,8 @@ class Simulation:
         material : Material
             The wall's material (required).
         velocity : array_like, shape (3,)
-            Translation velocity [m/s], at most the speed of light in magnitude
-            (:data:`MAX_WALL_SPEED`). Default zero.
+            Translation velocity [m/s], at most the speed of light (299,792,458 m/s)
+            in magnitude. Default zero.
         angular_velocity : array_like, shape (3,)
             Angular velocity [rad/s] about ``point``. Default zero. A run refuses (ValueError) a
             rotation that moves the wall faster than light where a sphere is.
@@ -578,8 +578,8 @@ class Simulation:
         wall : int
             The wall's index (as returned by :meth:`add_plane`).
         velocity : array_like, shape (3,), optional
-            New translation velocity [m/s], at most the speed of light in magnitude
-            (:data:`MAX_WALL_SPEED`). Default None: unchanged.
+            New translation velocity [m/s], at most the speed of light (299,792,458 m/s)
+            in magnitude. Default None: unchanged.
         angular_velocity : array_like, shape (3,), optional
             New angular velocity [rad/s] about the wall's current point. Default None:
             unchanged. A run refuses (ValueError) a rotation that moves the wall faster than
@@ -875,8 +875,8 @@ class Simulation:
         lists = held["verlet list"] + held["near list"]
         _checks.warn(
             f"skin={skin!r} m is {skin / diameter:.3g} times the largest diameter ({diameter:g} m): the "
-            f"neighbour list holds {pairs} pairs, {pairs / n:.0f} per sphere where a sphere touches "
-            f"at most a dozen, and the lists take {lists / 2**30:.3g} GiB. A skin of a fraction of "
+            f"neighbour list holds {pairs} pairs, {pairs / n:.0f} per sphere (a sphere among equal ones "
+            f"touches at most 12), and the lists take {lists / 2**30:.3g} GiB. A skin of a fraction of "
             "a diameter suffices (None: 0.2 x the mean diameter); a larger one only for spheres "
             "that move far between rebuilds", PerformanceWarning)
 
@@ -1189,8 +1189,8 @@ def _warn_threads(threads: int) -> None:
 
 
 # A run whose skin is beyond the largest diameter warns when its Verlet list holds more than
-# this many pairs per sphere (a dense pack at the default skin holds about 6, the contacts a
-# sphere can have at most 6 in a half list of equal spheres) ...
+# this many pairs per sphere (a dense pack of equal spheres at the default skin holds about 6:
+# each sphere touches at most 12, and the half list counts a pair once) ...
 SKIN_PAIRS_PER_SPHERE = 64
 # ... and more than this many in all (a smaller list, some 10 MB, costs little whatever its skin).
 SKIN_PAIRS_FLOOR = 100_000
