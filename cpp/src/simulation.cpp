@@ -379,6 +379,10 @@ void Simulation::check_wall_speeds() const {
   const ParticleStore& ps = particles_.arrays();
   for (int k = 0; k < walls_.count(); ++k) {
     const Plane& p = walls_.plane(k);
+    // (A translation was checked when it was set; a checkpoint's wall is restored as it was.)
+    require(p.velocity.norm() <= kMaxWallSpeed, [&] {
+      return "wall " + std::to_string(k) + ": " + wall_too_fast(p.velocity.norm());
+    });
     const double spin = p.angular_velocity.norm();
     if (spin == 0) continue;
     double reach = 0;  // the farthest sphere from the wall's centre of rotation

@@ -1223,9 +1223,9 @@ def _wall_velocity(name: str, value) -> tuple[float, float, float]:
     v = _checks.vec3(name, value)
     speed = math.hypot(*v)
     if not speed <= MAX_WALL_SPEED:
-        raise ValueError(f"{name} = {list(v)!r} m/s: a wall moving at {speed:g} m/s is faster than light "
-                         f"({MAX_WALL_SPEED:g} m/s); no wall of a Newtonian scene moves so fast, and far "
-                         "beyond it the contact forces overflow doubles: check the units")
+        raise ValueError(f"{name} must be at most the speed of light, {MAX_WALL_SPEED:g} m/s, in magnitude: "
+                         "no wall of a Newtonian scene moves faster, and far beyond it the contact "
+                         f"forces overflow doubles (check the units), got {value!r} ({speed:g} m/s)")
     return v
 
 
