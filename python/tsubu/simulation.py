@@ -17,7 +17,8 @@ from .material import Material, _check_field, _check_uniform_range, _from_core, 
 
 
 class InstabilityError(RuntimeError):
-    """A run went unstable: a non-finite force, or an overlap beyond ``max_overlap`` of a radius.
+    """A run went unstable: a non-finite force, an overlap beyond ``max_overlap`` of a radius, or
+    a step that moved a sphere too far for the overlap check to see it meet another.
 
     Raised by :meth:`Simulation.run`. The message says what went wrong (the quantity, the step,
     the sphere, or for a pack that bursts between fixed walls the energy it created). The state
@@ -713,7 +714,9 @@ class Simulation:
         steps : int, optional
             Number of steps (>= 0). Give exactly one of ``steps`` and ``time``.
         time : float, optional
-            Simulated time [s] (>= 0).
+            Simulated time [s] (>= 0), rounded to the nearest whole number of steps. 0 runs no
+            step; a time > 0 that rounds to none (below dt/2) raises ValueError rather than run
+            nothing.
         progress : bool or None, default None
             Show a progress bar on stderr (tqdm: simulated time, steps/s, particle-steps/s and
             time left). None: only on an interactive terminal (not in pipes, CI or notebooks),
@@ -740,9 +743,13 @@ class Simulation:
         Raises
         ------
         InstabilityError
-            The run went unstable (the last good state stays readable).
+            The run went unstable (the last good state stays readable): an overlap beyond
+            ``max_overlap``, a non-finite force or velocity, a step that moved a sphere further
+            than the overlap check can follow, or (with fixed walls) an energy balance that grew,
+            audited every 1,000th step and when the run ends.
         ValueError
-            A dt above the stability bound, initial overlaps, or a bad argument.
+            A dt above the stability bound, initial overlaps, a time shorter than half a step,
+            or a bad argument.
         KeyboardInterrupt
             Ctrl-C (SIGINT) during the run.
 
