@@ -199,6 +199,131 @@ def test_sphere_overlapping_a_wall_is_refused(ref_sim, ref_material):
     assert ref_sim.step_count == 0
 
 
+# ---- overlaps made after the first run (checked at the next run) ------------------------------
+
+def two_apart(sim, material):
+    """Spheres 0 and 1 on the floor (wall 0), 4 radii apart, after a first run of 10 steps."""
+    sim.add_plane(point=(0.0, 0.0, 0.0), normal=(0.0, 0.0, 1.0), material=material)
+    sim.add_spheres([(0.0, 0.0, R), (4 * R, 0.0, R)], R, material)
+    sim.run(steps=10)
+    return sim
+
+
+@pytest.mark.parametrize("depth", [0.2, 0.6])
+def test_a_sphere_added_after_the_first_run_into_another_is_refused(ref_sim, ref_material, depth):
+    """A sphere added after the first run overlapping sphere 0 by 0.2 r (which used to fly off
+    at 2.6 m/s) or 0.6 r (which used to raise an InstabilityError blaming the time step): the
+    next run raises the first run's ValueError, naming both spheres and the one added, takes
+    no step and moves nothing, and runs once the sphere is moved clear."""
+    sim = two_apart(ref_sim, ref_material)
+    x0 = sim.positions
+    sim.add_sphere((-(2 - depth) * R, 0.0, sim.positions[0, 2]), R, ref_material)
+    for _ in range(2):  # still refused
+        with pytest.raises(ValueError, match=r"initial overlap: spheres 0 and 2 overlap by .* "
+                                             rf"\({depth:g} of the smaller radius; tolerance 0\.05\)"
+                                             r".*sphere 2 was added since the last run"):
+            sim.run(steps=5)
+        assert sim.step_count == 10
+        np.testing.assert_array_equal(sim.positions[:2], x0)
+    sim.positions = np.vstack([x0, [(-3 * R, 0.0, x0[0, 2])]])
+    sim.run(steps=5)
+    assert sim.step_count == 15 and np.abs(sim.velocities).max() < 1e-2
+
+
+def test_add_spheres_after_the_first_run_is_checked_against_walls_and_each_other(ref_sim, ref_material):
+    sim = two_apart(ref_sim, ref_material)
+    sim.add_spheres([(10 * R, 0.0, 0.8 * R)], R, ref_material)  # 0.2 r into the floor
+    with pytest.raises(ValueError, match=r"sphere 2 overlaps wall 0 by .*\(0\.2 of its radius.*"
+                                         r"sphere 2 was added since the last run"):
+        sim.run(steps=1)
+    sim.positions = np.vstack([sim.positions[:2], [(10 * R, 0.0, 1.5 * R)]])
+    sim.run(steps=1)
+    # two new spheres overlapping each other
+    sim.add_spheres([(20 * R, 0.0, 3 * R), (21.8 * R, 0.0, 3 * R)], R, ref_material)
+    with pytest.raises(ValueError, match=r"spheres 3 and 4 overlap by .*\(0\.2 of the smaller"):
+        sim.run(steps=1)
+
+
+def test_a_sphere_moved_after_the_first_run_into_another_or_a_wall_is_refused(ref_sim, ref_material):
+    sim = two_apart(ref_sim, ref_material)
+    x = sim.positions.copy()
+    x[1, 0] = x[0, 0] + 1.8 * R
+    sim.positions = x
+    with pytest.raises(ValueError, match=r"spheres 0 and 1 overlap by .*\(0\.2 of the smaller.*"
+                                         r"sphere 1 was moved since the last run"):
+        sim.run(steps=1)
+    x[1] = (4 * R, 0.0, 0.7 * R)
+    sim.positions = x
+    with pytest.raises(ValueError, match=r"sphere 1 overlaps wall 0 by .*\(0\.3 of its radius.*"
+                                         r"sphere 1 was moved since the last run"):
+        sim.run(steps=1)
+    x[1] = (4 * R, 0.0, R)
+    sim.positions = x
+    sim.run(steps=1)
+
+
+def test_a_wall_added_after_the_first_run_through_a_sphere_is_refused(ref_sim, ref_material):
+    sim = two_apart(ref_sim, ref_material)
+    sim.add_plane(point=(4.9 * R, 0.0, 0.0), normal=(-1.0, 0.0, 0.0), material=ref_material)
+    with pytest.raises(ValueError, match=r"sphere 1 overlaps wall 1 by .*\(0\.1 of its radius.*"
+                                         r"wall 1 was added since the last run"):
+        sim.run(steps=1)
+
+
+def test_a_pack_moved_as_a_whole_keeps_its_overlaps(ref_material):
+    """Two spheres that a run pressed together beyond initial_overlap, moved together (or a
+    third sphere moved, or added clear): the next run accepts their overlap, which the change
+    did not deepen; pushing one deeper into the other is refused."""
+    sim = tsubu.Simulation(gravity=(0.0, 0.0, 0.0), dt=1e-6, threads=1)
+    v = 2.0  # m/s: a head-on impact that overlaps the pair by about 0.15 r at its deepest
+    sim.add_spheres([(-1.01 * R, 0.0, 0.0), (1.01 * R, 0.0, 0.0), (10 * R, 0.0, 0.0)], R,
+                    ref_material, velocities=[(v, 0.0, 0.0), (-v, 0.0, 0.0), (0.0, 0.0, 0.0)])
+    for _ in range(40):
+        sim.run(steps=1)
+        if sim.contacts()["overlap"].size and sim.contacts()["overlap"].max() > 0.1 * R:
+            break
+    assert sim.contacts()["overlap"].max() > 0.1 * R
+    x = sim.positions
+    sim.positions = x + (1.0, -2.0, 0.5)
+    sim.run(steps=1)
+    sim.add_sphere((0.0, 10 * R, 0.0), R, ref_material)
+    sim.run(steps=1)
+    x = sim.positions.copy()
+    x[1, 0] -= 0.1 * R
+    sim.positions = x
+    with pytest.raises(ValueError, match=r"spheres 0 and 1 overlap.*sphere 1 was moved"):
+        sim.run(steps=1)
+
+
+def test_an_unchecked_change_survives_save_and_load(ref_sim, ref_material, tmp_path):
+    """A sphere added into another and saved before the run that would refuse it: the loaded
+    Simulation refuses it too."""
+    sim = two_apart(ref_sim, ref_material)
+    sim.add_sphere((-1.8 * R, 0.0, sim.positions[0, 2]), R, ref_material)
+    loaded = tsubu.Simulation.load(sim.save(tmp_path / "ck.tsubu"))
+    with pytest.raises(ValueError, match=r"spheres 0 and 2 overlap.*sphere 2 was added"):
+        loaded.run(steps=1)
+    sim = two_apart(tsubu.Simulation(dt=1e-6, threads=1), ref_material)
+    sim.add_plane(point=(0.0, 0.0, 0.5 * R), normal=(0.0, 0.0, 1.0), material=ref_material)
+    loaded = tsubu.Simulation.load(sim.save(tmp_path / "ck2.tsubu"))
+    with pytest.raises(ValueError, match=r"sphere 0 overlaps wall 1.*wall 1 was added"):
+        loaded.run(steps=1)
+
+
+def test_spheres_an_inserter_places_are_not_checked_at_later_runs(ref_material):
+    """An inserter whose region reaches 0.3 r into the floor: its spheres go in during the run
+    (as before), not refused at the next piece of the run (inserters place their spheres clear
+    of the others themselves; walls they leave to the user)."""
+    sim = tsubu.Simulation(gravity=(0.0, 0.0, -9.81), dt=1e-6, threads=1)
+    sim.add_plane(point=(0.0, 0.0, 0.0), normal=(0.0, 0.0, 1.0), material=ref_material)
+    sim.add_sphere((0.0, 0.0, 20 * R), R, ref_material)
+    region = tsubu.fill.Box((-0.2 * R, -10 * R, -0.3 * R), (10 * R, 10 * R, 1.8 * R))
+    inserter = sim.add_inserter(region, rate=1e5, sizes=R, material=ref_material, interval=1e-5,
+                                total=3, start=2e-5)
+    sim.run(steps=60)
+    assert inserter.inserted == 3 and sim.size == 4
+
+
 # ---- time step and run() -----------------------------------------------------------------------
 
 @pytest.mark.parametrize("dt, pattern", [(0.0, r"dt.*0\.0"), (-1e-6, r"dt.*-1e-06"),
@@ -314,3 +439,87 @@ def test_set_pair_checks_its_parameters(ref_sim, ref_material):
     # nothing was overridden: the harmonic mean of kn stays
     assert ref_sim.pair_parameters(ref_material, other)["kn"] == pytest.approx(
         2 * 1000.0 * 2000.0 / 3000.0, rel=1e-12)
+
+
+# ---- returned arrays are read-only (an edit raises, instead of changing a copy) ---------------
+
+STATE_ARRAYS = ["positions", "velocities", "angular_velocities", "radii", "masses", "forces",
+                "torques", "gravity", "material_ids"]
+
+
+@pytest.mark.parametrize("name", STATE_ARRAYS)
+def test_writing_into_a_returned_array_raises(ref_sim, ref_material, name):
+    """sim.positions[0, 2] = 99 used to edit a copy silently; now it raises ValueError, and the
+    Simulation is as it was (the setter is the way to change it)."""
+    ref_sim.add_spheres([(0.0, 0.0, R), (4 * R, 0.0, R)], R, ref_material)
+    ref_sim.run(steps=2)
+    before = getattr(ref_sim, name).copy()
+    array = getattr(ref_sim, name)
+    with pytest.raises(ValueError, match="read-only"):
+        array[0] = 99
+    with pytest.raises(ValueError, match="read-only"):
+        array += 1
+    np.testing.assert_array_equal(getattr(ref_sim, name), before)
+    edited = array.copy()  # (a copy is writable: edit it, then assign it)
+    edited[0] = 0
+
+
+def test_plane_arrays_are_read_only(ref_sim, ref_material):
+    wall = ref_sim.add_plane(point=(0.0, 0.0, 0.0), normal=(0.0, 0.0, 1.0), material=ref_material,
+                             velocity=(0.1, 0.0, 0.0))
+    state = ref_sim.plane(wall)
+    for key in ("point", "normal", "velocity", "angular_velocity"):
+        with pytest.raises(ValueError, match="read-only"):
+            state[key][2] = 99
+    np.testing.assert_array_equal(ref_sim.plane(wall)["normal"], (0.0, 0.0, 1.0))
+    np.testing.assert_array_equal(ref_sim.plane(wall)["velocity"], (0.1, 0.0, 0.0))
+
+
+def test_setters_take_the_read_only_arrays(ref_sim, ref_material):
+    """A returned array, or one computed from it, is what the setters take."""
+    ref_sim.add_spheres([(0.0, 0.0, R), (4 * R, 0.0, R)], R, ref_material)
+    ref_sim.positions = ref_sim.positions + (0.0, 0.0, R)
+    ref_sim.velocities = ref_sim.velocities
+    ref_sim.gravity = ref_sim.gravity
+    assert ref_sim.positions[0, 2] == 2 * R
+
+
+# ---- booleans are not numbers ------------------------------------------------------------------
+
+@pytest.mark.parametrize("call, name", [
+    (lambda s, m: s.add_sphere((0.0, 0.0, True), R, m), "position"),
+    (lambda s, m: s.add_sphere((0.0, 0.0, 1.0), R, m, velocity=[0, False, 0]), "velocity"),
+    (lambda s, m: s.add_sphere((0.0, 0.0, 1.0), R, m, angular_velocity=(np.True_, 0, 0)),
+     "angular_velocity"),
+    (lambda s, m: s.add_spheres([(0.0, 0.0, 1.0), (0.0, 0.0, True)], R, m), "positions"),
+    (lambda s, m: s.add_spheres(np.zeros((1, 3), dtype=bool), R, m), "positions"),
+    (lambda s, m: s.add_spheres([(0.0, 0.0, 1.0)], [True], m), "radius"),
+    (lambda s, m: s.add_spheres([(0.0, 0.0, 1.0)], True, m), "radius"),
+    (lambda s, m: s.add_spheres([(0.0, 0.0, 1.0)], R, m, velocities=[[0, 0, True]]), "velocities"),
+    (lambda s, m: s.add_plane(point=(0, 0, True), material=m), "point"),
+    (lambda s, m: s.add_plane(normal=(0, 0, True), material=m), "normal"),
+    (lambda s, m: s.add_plane(coefficients=(0, 0, 1, False), material=m), "coefficients"),
+    (lambda s, m: s.add_plane(material=m, velocity=(True, 0, 0)), "velocity"),
+    (lambda s, m: setattr(s, "gravity", (0, 0, True)), "gravity"),
+    (lambda s, m: tsubu.Simulation(gravity=[0.0, 0.0, np.True_]), "gravity"),
+])
+def test_booleans_in_numeric_vectors_are_refused(ref_sim, ref_material, call, name):
+    """add_sphere((0, 0, True)) used to put the sphere at z = 1 m: a bool where a number is
+    expected is a TypeError naming the argument."""
+    with pytest.raises(TypeError, match=rf"^{name} must .*(bool|True|False)"):
+        call(ref_sim, ref_material)
+    assert ref_sim.size == 0 and ref_sim.plane_count == 0
+    np.testing.assert_array_equal(ref_sim.gravity, (0.0, 0.0, -9.81))
+
+
+def test_booleans_in_state_setters_are_refused(ref_sim, ref_material):
+    ref_sim.add_spheres([(0.0, 0.0, R), (4 * R, 0.0, R)], R, ref_material)
+    x = ref_sim.positions
+    for name in ("positions", "velocities", "angular_velocities"):
+        with pytest.raises(TypeError, match=rf"^{name} must .*True"):
+            setattr(ref_sim, name, [[0.0, 0.0, 1.0], [0.0, 0.0, True]])
+    wall = ref_sim.add_plane(material=ref_material)
+    with pytest.raises(TypeError, match=r"^velocity must .*True"):
+        ref_sim.set_plane_motion(wall, velocity=(0, 0, True))
+    np.testing.assert_array_equal(ref_sim.positions, x)
+    np.testing.assert_array_equal(ref_sim.plane(wall)["velocity"], (0.0, 0.0, 0.0))

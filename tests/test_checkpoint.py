@@ -195,6 +195,23 @@ def test_a_failed_write_leaves_the_old_file(tmp_path, saved, monkeypatch):
     assert sorted(p.name for p in tmp_path.iterdir()) == ["run.tsubu"]  # no temporary left
 
 
+def test_saving_into_a_missing_directory_names_the_path_asked_for(tmp_path):
+    """The error names the checkpoint's path and its missing directory, not the temporary file
+    the write goes through (issue 26)."""
+    sim = box_scene("rough")
+    path = tmp_path / "no such dir" / "run.tsubu"
+    with pytest.raises(FileNotFoundError) as info:
+        sim.save(path)
+    assert info.value.filename == str(path)
+    assert f"the directory {str(tmp_path / 'no such dir')!r} does not exist" in str(info.value)
+    assert ".tmp" not in str(info.value)
+    (tmp_path / "a file").write_text("")
+    with pytest.raises(NotADirectoryError, match="is not a directory") as info:
+        sim.save(tmp_path / "a file" / "run.tsubu")
+    assert info.value.filename == str(tmp_path / "a file" / "run.tsubu")
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["a file"]
+
+
 WRITER = textwrap.dedent("""
     import sys, numpy as np, tsubu
     m = tsubu.Material(density=2500.0, kn=1e3, restitution=0.5, friction=0.5)

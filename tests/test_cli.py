@@ -77,6 +77,87 @@ def test_an_unstable_run_exits_1(tmp_path, capsys):
     assert line.startswith(f"tsubu: error: {path}: the run went unstable: unstable at step ")
 
 
+# ---- scenes with valid syntax that the library refuses: one line, exit 2 (issue 26) ------------
+
+@pytest.mark.parametrize("change, message", [
+    (("point = [0, 0, 0]\nnormal = [0, 0, 1]", "point = [0, 0, 0.0005]\nnormal = [0, 0, 1]"),
+     "initial overlap: sphere 0 overlaps wall 0"),
+    (("dt_fraction = 0.02", "dt = 1e-3"), "dt = 0.001 s exceeds the stability bound"),
+])
+def test_a_scene_the_library_refuses_exits_2_in_one_line(tmp_path, capsys, change, message):
+    path = copy_scene(tmp_path)
+    assert change[0] in path.read_text()
+    path.write_text(path.read_text().replace(*change))
+    assert main(["run", str(path), "--no-progress"]) == 2
+    (line,) = capsys.readouterr().err.splitlines()
+    assert line.startswith(f"tsubu: error: {path}: the scene cannot start: {message}")
+
+
+def test_the_installed_command_refuses_such_a_scene_without_a_traceback(tmp_path):
+    path = copy_scene(tmp_path)
+    path.write_text(path.read_text().replace("dt_fraction = 0.02", "dt = 1e-3"))
+    here = str(pathlib.Path(tsubu.__file__).resolve().parents[1])  # this tsubu, not an installed one
+    result = subprocess.run([sys.executable, "-m", "tsubu", "run", str(path), "--no-progress"],
+                            capture_output=True, text=True, cwd=tmp_path,
+                            env={**os.environ, "PYTHONPATH": here})
+    assert result.returncode == 2
+    assert result.stderr.startswith(f"tsubu: error: {path}: the scene cannot start: dt = ")
+    assert "Traceback" not in result.stderr and len(result.stderr.splitlines()) == 1
+
+
+@pytest.mark.parametrize("where", ["--output", "output.directory"])
+def test_an_output_directory_that_cannot_be_written_exits_2_before_the_run(tmp_path, capsys, where):
+    path = copy_scene(tmp_path)
+    (tmp_path / "taken").write_text("a file, not a directory")
+    argv = ["run", str(path), "--no-progress"]
+    if where == "--output":
+        argv += ["--output", str(tmp_path / "taken")]
+        path.write_text(path.read_text() + '\n[checkpoint]\npath = "run.tsubu"\n')
+    else:
+        path.write_text(path.read_text() + '\n[output]\ndirectory = "taken"\nnpz = { every = 50 }\n')
+    assert main(argv) == 2
+    assert capsys.readouterr().err == (f"tsubu: error: {path}: {where} = {tmp_path / 'taken'}: not a "
+                                       "directory (a file of that name exists)\n")
+
+
+def test_output_that_cannot_be_written_during_the_run_exits_2(tmp_path, capsys, monkeypatch):
+    path = copy_scene(tmp_path)
+    path.write_text(path.read_text() + '\n[checkpoint]\npath = "run.tsubu"\n')
+
+    def full(*args, **kwargs):
+        raise OSError(28, "No space left on device", str(tmp_path / "output" / "run.tsubu"))
+
+    monkeypatch.setattr(tsubu.Simulation, "save", full)
+    assert main(["run", str(path), "--no-progress"]) == 2
+    assert capsys.readouterr().err == (f"tsubu: error: {path}: cannot write the output: "
+                                       f"{tmp_path / 'output' / 'run.tsubu'}: No space left on device\n")
+
+
+@pytest.mark.parametrize("command", ["run", "resume", "demo"])
+def test_threads_out_of_range_is_the_command_line_options_error(tmp_path, capsys, command):
+    """--threads 100000 is reported as the option it is, not as the scene key simulation.threads."""
+    argv = {"run": ["run", str(copy_scene(tmp_path))], "resume": ["resume", "c.tsubu"], "demo": ["demo"]}
+    with pytest.raises(SystemExit) as info:
+        main(argv[command] + ["--threads", "100000"])
+    assert info.value.code == 2
+    err = capsys.readouterr().err
+    assert "argument --threads: must be an integer from 1 to 4096, got '100000'" in err
+    assert "simulation.threads" not in err
+
+
+def test_an_internal_error_is_not_swallowed(tmp_path, monkeypatch):
+    """Only the library's refusals (ValueError, TypeError, OSError) become exit 2: anything else
+    is a bug, and keeps its traceback."""
+    from tsubu.scene import Scene
+
+    def bug(self, *args, **kwargs):
+        raise KeyError("a bug")
+
+    monkeypatch.setattr(Scene, "run", bug)
+    with pytest.raises(KeyError, match="a bug"):
+        main(["run", str(copy_scene(tmp_path)), "--no-progress"])
+
+
 def test_output_directory_override(tmp_path, capsys):
     pytest.importorskip("tsubu.output")
     path = copy_scene(tmp_path)
@@ -183,8 +264,40 @@ def test_resume_until_in_the_past_is_refused(tmp_path, capsys):
     assert checkpoint.read_bytes() == before
 
 
+def test_resume_refuses_what_the_library_refuses_in_one_line(tmp_path, capsys):
+    """tsubu resume as tsubu run: a checkpoint whose scene cannot start, or an output directory
+    that cannot be written, ends in one line and exit 2 (issue 26)."""
+    needs_checkpoints()
+    path = copy_scene(tmp_path)
+    path.write_text(path.read_text() + "\n[checkpoint]\npath = \"run.tsubu\"\n")
+    assert main(["run", str(path), "--no-progress"]) == 0
+    checkpoint = tmp_path / "output" / "run.tsubu"
+    sim = tsubu.Simulation.load(checkpoint)
+    sim.dt = 1e-3  # above the stability bound: refused when the run starts
+    sim.save(tmp_path / "bad dt.tsubu")
+    capsys.readouterr()
+    assert main(["resume", str(tmp_path / "bad dt.tsubu"), "--time", "0.01", "--no-progress"]) == 2
+    (line,) = capsys.readouterr().err.splitlines()
+    assert line.startswith(f"tsubu: error: {tmp_path / 'bad dt.tsubu'}: the scene cannot start: dt = 0.001 s "
+                           "exceeds the stability bound")
+    (tmp_path / "taken").write_text("")
+    assert main(["resume", str(checkpoint), "--time", "0.001", "--output", str(tmp_path / "taken"),
+                 "--no-progress"]) == 2
+    assert capsys.readouterr().err == (f"tsubu: error: {checkpoint}: --output = {tmp_path / 'taken'}: "
+                                       "not a directory (a file of that name exists)\n")
+
+
 def test_demo_and_info_still_work(capsys):
     assert main(["info"]) == 0
     assert capsys.readouterr().out.startswith(f"tsubu {tsubu.__version__}")
     assert main(["demo", "--nx", "2", "--nz", "2", "--time", "0.001", "--threads", "1"]) == 0
     assert "demo: 8 glass beads" in capsys.readouterr().out
+
+
+def test_demo_says_why_it_runs_on_one_thread(capsys):
+    assert main(["demo", "--nx", "2", "--nz", "2", "--time", "0.001", "--threads", "2"]) == 0
+    out = capsys.readouterr().out
+    if tsubu.openmp:
+        assert "on 1 thread: 8 beads are below parallel_min = 2048, under which a scene runs on one thread" in out
+    else:
+        assert "on 1 thread: this build has no OpenMP" in out

@@ -242,7 +242,7 @@ def drop_cluster(speed):
     sim.add_plane(point=(0, 0, 0), normal=(0, 0, 1), material=wall)
     sim.run(time=0.01)
     assert pieces(sim) == [13] and len(sim.contacts()["overlap"]) == 36  # 12 + 24 bonds
-    v = sim.velocities
+    v = sim.velocities.copy()  # (read-only: a copy to edit)
     v[:, 2] -= speed
     sim.velocities = v
     sim.run(time=gap / speed + 0.05)

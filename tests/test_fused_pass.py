@@ -110,7 +110,7 @@ def test_unstable_run_stops_at_the_same_step_with_the_same_state():
         p = sim.positions
         a = int(np.argmin(np.linalg.norm(p - p.mean(axis=0), axis=1)))
         b = int(np.argmin(np.linalg.norm(p - (p[a] + (SPACING, 0.0, 0.0)), axis=1)))
-        v = sim.velocities
+        v = sim.velocities.copy()  # (read-only: a copy to edit)
         v[a], v[b] = (10.0, 0.0, 0.0), (-10.0, 0.0, 0.0)
         sim.velocities = v
         with pytest.raises(tsubu.InstabilityError) as info:

@@ -311,6 +311,39 @@ def test_a_hook_on_a_simulation_that_went_back_writes_again(tmp_path):
     assert hook.next_step(sim) == 8430
 
 
+def two_beads() -> tsubu.Simulation:
+    sim = tsubu.Simulation(dt=1e-5)
+    bead = tsubu.Material(density=2500.0, kn=1e3, restitution=0.5)
+    sim.add_spheres([(0, 0, 1e-3), (0, 0, 4e-3)], 1e-3, bead)
+    sim.add_plane(point=(0, 0, 0), normal=(0, 0, 1), material=bead)
+    return sim
+
+
+@pytest.mark.parametrize("writer, index", [(output.VTKOutput, "particles.pvd"),
+                                           (output.CSVOutput, "state_frames.csv")])
+def test_a_second_simulation_does_not_silently_replace_the_first_ones_series(tmp_path, writer, index):
+    """Two Simulations of one process writing into one directory under one name: the second,
+    whose first frame would replace every frame of the first, is refused before it writes
+    anything, with a message naming the directory and what to do (issue 26)."""
+    first = two_beads()
+    first.run(steps=30, output=writer(tmp_path, every=10))
+    files = {f: binary(tmp_path / f) for f in os.listdir(tmp_path)}
+    second = two_beads()
+    with pytest.raises(FileExistsError, match=re.escape(f"the directory {str(tmp_path)!r} already "
+                                                        f"holds a series {index} of 4 frames")) as info:
+        second.run(steps=30, output=writer(tmp_path, every=10))
+    assert "its own directory or name=" in str(info.value)
+    assert info.value.filename == str(tmp_path / index)
+    assert second.step_count == 0
+    assert {f: binary(tmp_path / f) for f in os.listdir(tmp_path)} == files  # untouched
+    second.run(steps=30, output=writer(tmp_path / "second", every=10))  # its own directory: fine
+    second.run(steps=10, output=writer(tmp_path, every=10, name="second"))  # its own name: fine
+    first.run(steps=10, output=writer(tmp_path, every=10))  # the first goes on with its series
+    del first  # even once the first is gone, its frames are not replaced
+    with pytest.raises(FileExistsError):
+        two_beads().run(steps=10, output=writer(tmp_path, every=10))
+
+
 def test_bad_arguments_are_refused(tmp_path):
     with pytest.raises(ValueError, match="every must be >= 1"):
         output.VTKOutput(tmp_path, every=0)

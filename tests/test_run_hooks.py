@@ -3,6 +3,7 @@ stretches by them gives the same bits, and the progress bar shows only where it 
 
 from __future__ import annotations
 
+import re
 import sys
 
 import numpy as np
@@ -81,6 +82,39 @@ def test_a_hook_that_does_not_move_on_is_refused():
         pile().run(steps=10, output=Stuck(1))
 
 
+class Returns(Every):
+    """A hook whose next_step returns a fixed value until it has acted, then None."""
+
+    def __init__(self, value):
+        super().__init__(1)
+        self.value = value
+
+    def next_step(self, sim):
+        return None if self.steps else self.value
+
+    def __repr__(self):
+        return "Returns()"
+
+
+@pytest.mark.parametrize("value", [10.5, "10", 10.0, True, np.float64(10.0), [10]])
+def test_a_next_step_that_is_not_an_int_is_named(value):
+    """next_step must return an int step count or None: anything else gets a TypeError naming the
+    hook and the value, not pybind11's message about run()'s arguments (issue 26)."""
+    sim = pile()
+    hook = Returns(value)
+    with pytest.raises(TypeError, match=re.escape(f"run hook Returns(): next_step returned {value!r} "
+                                                  f"({type(value).__name__})")):
+        sim.run(steps=20, output=hook)
+    assert sim.step_count == 0 and hook.closed == 1
+
+
+@pytest.mark.parametrize("value", [10, np.int64(10), np.uint32(10), None])
+def test_a_next_step_may_be_any_integer(value):
+    hook = Returns(value)
+    sim = pile().run(steps=20, output=hook)
+    assert sim.step_count == 20 and hook.steps == ([] if value is None else [10])
+
+
 def test_close_runs_when_the_run_fails():
     class Boom(Every):
         def act(self, sim):
@@ -120,6 +154,51 @@ def test_a_bar_when_asked(capsys):
     pile().run(steps=2000, progress=True)
     err = capsys.readouterr().err
     assert "2000/2000" in err and "particle-steps/s" in err and "t = " in err
+
+
+def test_the_bar_shows_current_rates_in_one_unit_and_whole_run_means_at_the_end(capsys):
+    """During the run, steps/s and particle-steps/s are both current (the second is the sphere
+    count times the first), not a current step rate beside a whole-run particle-step average;
+    the final line shows both as whole-run means, marked so (issue 26)."""
+    pytest.importorskip("tqdm")
+    sim = pile()  # 200 spheres
+    clock = [0.0]
+    bar = hooks.ProgressBar(sim, steps=3000, delay=0.0, clock=lambda: clock[0])
+    sim._core.run(100)
+    clock[0] = 1.0
+    bar.update(100, 0.5)  # 100 steps in 1 s of wall time
+    assert bar.bar.postfix == f"t = {sim.time:.4g} s, 200 spheres, 100 step/s, 0.02 M particle-steps/s"
+    sim._core.run(300)
+    clock[0] = 2.0
+    bar.update(300, 0.5)  # 300 steps in 1 s: smoothed, 0.3 * 300 + 0.7 * 100 = 160 steps per second
+    assert bar.bar.postfix.endswith(", 200 spheres, 160 step/s, 0.032 M particle-steps/s")
+    clock[0] = 4.0
+    bar.close()  # 400 steps in 4 s
+    last = capsys.readouterr().err.split("\r")[-1]
+    assert "400/3000" in last
+    assert "200 spheres, mean 100 step/s, 0.02 M particle-steps/s" in last
+
+
+def test_the_bar_ends_at_the_steps_done_when_ctrl_c_cuts_a_stretch(capsys):
+    """Ctrl-C during a stretch: the bar's final count is the steps actually done, those of the
+    cut stretch included, not the count of the last update (issue 26)."""
+    pytest.importorskip("tqdm")
+    sim = pile()
+    asked = []
+
+    def advance(steps):  # the third stretch takes 2 steps, then Ctrl-C
+        asked.append(steps)
+        if len(asked) < 3:
+            return sim._core.run(steps)
+        sim._core.run(2)
+        raise KeyboardInterrupt
+
+    sim._advance = advance
+    with pytest.raises(KeyboardInterrupt):
+        sim.run(steps=1000, progress=True)
+    assert sim.step_count == asked[0] + asked[1] + 2
+    last = capsys.readouterr().err.split("\r")[-1]
+    assert f"| {sim.step_count}/1000 [" in last and f"t = {sim.time:.4g} s" in last
 
 
 def test_on_by_default_only_in_an_interactive_terminal(monkeypatch):

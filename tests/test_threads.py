@@ -4,7 +4,8 @@ Several Simulations run at once from several threads give the bits of the same r
 after the other: runs release the GIL (the test checks that the runs overlapped in time), and
 the engine keeps no state shared between Simulations. One Simulation used from two threads at
 once refuses the second thread with RuntimeError (every public method and property but
-request_stop and running), and leaves its state as the run left it.
+request_stop, running and the progress counters step_count and time), and leaves its state as
+the run left it.
 """
 
 from __future__ import annotations
@@ -147,16 +148,15 @@ def test_a_second_thread_is_refused_while_a_run_is_in_progress():
             "set_pair": lambda: sim.set_pair(material, material, friction=0.1),
             "contacts": lambda: sim.contacts(),
             "energy": lambda: sim.energy(),
-            "step_count": lambda: sim.step_count,
             "len": lambda: len(sim),
         }
         for what, call in refused.items():
             with pytest.raises(RuntimeError, match="running in another thread"):
                 call()
         # Every other public member too (called without arguments: refused before they are
-        # looked at), but the two meant for other threads.
+        # looked at), but those meant for other threads.
         for name in dir(tsubu.Simulation):
-            if name.startswith("_") or name in ("request_stop", "running"):
+            if name.startswith("_") or name in ("request_stop", "running", "step_count", "time"):
                 continue
             if isinstance(inspect.getattr_static(tsubu.Simulation, name), staticmethod):
                 continue  # load: makes a new Simulation, touches none
@@ -183,6 +183,33 @@ def test_a_second_thread_is_refused_while_a_run_is_in_progress():
     assert repr(sim).startswith("tsubu.Simulation(1000 spheres, 3 walls")
     sim.run(steps=10)  # usable again
     assert sim.step_count == done + 10 and not sim.stopped
+
+
+def test_a_monitor_thread_reads_step_count_and_time_during_a_run():
+    """While one thread runs, another reads step_count and time (issue 26: they were refused):
+    each read is a step completed, never decreasing, and time follows step_count; the run's
+    result is that of a run nobody watched."""
+    sim = scene(1)
+    worker, errors = start_long_run(sim)
+    seen = []
+    try:
+        deadline = time.monotonic() + 30.0
+        while len({s for s, _ in seen}) < 3 and time.monotonic() < deadline:
+            seen.append((sim.step_count, sim.time))
+            time.sleep(0.002)
+        assert sim.running
+    finally:
+        sim.request_stop()
+        worker.join(timeout=60)
+    assert errors == [] and sim.stopped
+    steps, times = [s for s, _ in seen], [t for _, t in seen]
+    assert len(set(steps)) >= 3 and steps == sorted(steps) and times == sorted(times)
+    assert all(0 <= s < LONG for s in steps) and max(steps) <= sim.step_count
+    for s, t in seen:  # (time is read after step_count: at its step or later)
+        assert s * 2e-6 * (1 - 1e-9) <= t <= sim.time, (s, t)
+    plain = scene(1)
+    plain.run(steps=sim.step_count)
+    assert_same_bits(state(sim), state(plain))
 
 
 def test_two_threads_running_one_simulation_one_is_refused():

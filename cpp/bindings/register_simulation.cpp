@@ -65,7 +65,7 @@ void register_simulation(py::class_<Sim>& cls) {
       .def(
           "add_spheres",
           [](Sim& s, const Array& x, const Array& r, const IntArray& mat, std::optional<Array> v,
-             std::optional<Array> w) {
+             std::optional<Array> w, bool check_overlaps) {
             const std::size_t n = static_cast<std::size_t>(r.shape(0));
             check_n3(x, n, "positions");
             if (v) check_n3(*v, n, "velocities");
@@ -73,9 +73,10 @@ void register_simulation(py::class_<Sim>& cls) {
             if (static_cast<std::size_t>(mat.size()) != n)
               throw py::value_error("materials must have one entry per sphere");
             return s.add_spheres(n, x.data(), r.data(), mat.data(), data_or_null(v),
-                                 data_or_null(w));
+                                 data_or_null(w), check_overlaps);
           },
-          "positions"_a, "radii"_a, "materials"_a, "velocities"_a, "angular_velocities"_a)
+          "positions"_a, "radii"_a, "materials"_a, "velocities"_a, "angular_velocities"_a,
+          "check_overlaps"_a = true)
       .def(
           "add_plane",
           [](Sim& s, std::array<double, 3> point, std::array<double, 3> normal, int mat,

@@ -22,8 +22,21 @@ void require(bool ok, const std::string& what) {
 }  // namespace
 
 Simulation::RunState Simulation::run_state() const {
-  return {run_.step, run_.time, ran_, speed_fixed_, energy_ref_, energy_ref_valid_, energy_ref_step_,
-          energy_ref_gravity_};
+  RunState s;
+  s.step = run_.step;
+  s.time = run_.time;
+  s.ran = ran_;
+  s.speed_fixed = speed_fixed_;
+  s.energy_ref = energy_ref_;
+  s.energy_ref_valid = energy_ref_valid_;
+  s.energy_ref_step = energy_ref_step_;
+  s.energy_ref_gravity = energy_ref_gravity_;
+  if (ran_) {
+    s.unchecked = unchecked_;
+    s.unchecked_from = unchecked_from_;
+    s.unchecked_walls = plane_count() - walls_checked_;
+  }
+  return s;
 }
 
 void Simulation::set_run_state(const RunState& s) {
@@ -37,6 +50,23 @@ void Simulation::set_run_state(const RunState& s) {
   energy_ref_valid_ = s.energy_ref_valid;
   energy_ref_step_ = s.energy_ref_step;
   energy_ref_gravity_ = s.energy_ref_gravity;
+  require(s.unchecked_from.size() == 3 * s.unchecked.size() && s.unchecked_walls >= 0 &&
+              s.unchecked_walls <= plane_count(),
+          "the changes not yet checked for overlaps: 3 coordinates per sphere, at most every wall");
+  unchecked_.clear();
+  unchecked_from_.clear();
+  unchecked_listed_.clear();
+  if (!s.unchecked.empty()) unchecked_listed_.assign(particles_.id_bound(), 0);
+  for (std::size_t k = 0; k < s.unchecked.size(); ++k) {  // (a sphere since removed is skipped)
+    const Id id = s.unchecked[k];
+    if (!particles_.has(id) || unchecked_listed_[static_cast<std::size_t>(id)]) continue;
+    unchecked_listed_[static_cast<std::size_t>(id)] = 1;
+    unchecked_.push_back(id);
+    unchecked_from_.insert(unchecked_from_.end(), s.unchecked_from.begin() + 3 * k,
+                           s.unchecked_from.begin() + 3 * (k + 1));
+  }
+  walls_checked_ = plane_count() - s.unchecked_walls;
+  publish();
 }
 
 void Simulation::get_dissipated(double* out) const {
@@ -223,6 +253,11 @@ void Simulation::RunState::save(archive::Writer& w) const {
   w.integer("energy_ref_valid", energy_ref_valid);
   w.integer("energy_ref_step", energy_ref_step);
   w.vec3("energy_ref_gravity", energy_ref_gravity);
+  if (!unchecked.empty() || unchecked_walls > 0) {  // (optional: most checkpoints have none)
+    w.integers("unchecked", std::vector<std::int64_t>(unchecked.begin(), unchecked.end()));
+    w.reals("unchecked_from", unchecked_from);
+    w.integer("unchecked_walls", unchecked_walls);
+  }
 }
 
 void Simulation::RunState::restore(archive::Reader& r) {
@@ -235,6 +270,14 @@ void Simulation::RunState::restore(archive::Reader& r) {
   energy_ref_valid = r.integer("energy_ref_valid") != 0;
   energy_ref_step = static_cast<long>(r.integer("energy_ref_step"));
   energy_ref_gravity = r.vec3("energy_ref_gravity");
+  if (r.next_is("unchecked")) {
+    const std::vector<std::int64_t> ids = r.integers("unchecked");
+    unchecked.assign(ids.begin(), ids.end());
+    unchecked_from = r.reals("unchecked_from", 3 * ids.size());
+    const std::int64_t walls = r.integer("unchecked_walls");
+    if (walls < 0 || walls > (1 << 30)) r.fail("unchecked_walls: " + std::to_string(walls));
+    unchecked_walls = static_cast<int>(walls);
+  }
 }
 
 void Simulation::ContactState::save(archive::Writer& w) const {

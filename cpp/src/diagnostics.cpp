@@ -17,26 +17,67 @@ using detail::require;
 
 // ---- checks and errors -------------------------------------------------------------------
 
-void Simulation::check_initial_overlaps() const {
+void Simulation::check_overlaps(bool all) const {
   const double tol = opt_.initial_overlap;
-  for (std::size_t i = 0; i < particles_.size(); ++i) {
+  const ParticleStore& a = particles_.arrays();
+  auto x = [&](Index i) { return vec3(a.x.data(), i); };
+  // After the first run only the changes are checked: slot[i] >= 0 for a sphere added or moved
+  // since the last run (its entry in unchecked_), and walls from walls_checked_ on.
+  std::vector<Index> slot;
+  if (!all) {
+    slot.assign(particles_.size(), -1);
+    for (std::size_t k = 0; k < unchecked_.size(); ++k)
+      if (particles_.has(unchecked_[k])) slot[static_cast<std::size_t>(particles_.index(unchecked_[k]))] = static_cast<Index>(k);
+  }
+  auto added = [&](Index i) { return slot[i] >= 0 && std::isnan(unchecked_from_[3 * slot[i]]); };
+  // A sphere's centre at the last check.
+  auto before = [&](Index i) -> Vec3 {
+    return slot[i] >= 0 ? Vec3(vec3(unchecked_from_.data(), slot[i])) : Vec3(x(i));
+  };
+  // Which change to name: an added sphere, else a moved one, else (walls) the wall.
+  auto what_changed = [&](Index i, Index j) -> std::string {
+    for (Index k : {j, i})
+      if (k >= 0 && added(k))
+        return "; sphere " + std::to_string(a.id[k]) + " was added since the last run: move it clear (or raise initial_overlap)";
+    for (Index k : {j, i})
+      if (k >= 0 && slot[k] >= 0)
+        return "; sphere " + std::to_string(a.id[k]) + " was moved since the last run: move it clear (or raise initial_overlap)";
+    return "";
+  };
+  // Slack for rounding when a pack moves as a whole: its overlaps are not deeper.
+  constexpr double kDeeper = 1e-6;
+  for (Index i = 0; i < static_cast<Index>(particles_.size()); ++i) {
     for (Index e = lists_.pair_offset[i]; e < lists_.pair_offset[i + 1]; ++e) {
       const Index j = lists_.pair_partner[e];
-      const double d = domain_.displacement(vec3(particles_.arrays().x.data(), i), vec3(particles_.arrays().x.data(), j)).norm();
-      const double ov = particles_.arrays().radius[i] + particles_.arrays().radius[j] - d;
-      if (ov > tol * std::min(particles_.arrays().radius[i], particles_.arrays().radius[j]))
-        throw InvalidArgument("initial overlap: spheres " + std::to_string(particles_.arrays().id[i]) + " and " +
-                              std::to_string(particles_.arrays().id[j]) + " overlap by " + fmt(ov) + " m (" +
-                              fmt(ov / std::min(particles_.arrays().radius[i], particles_.arrays().radius[j])) +
-                              " of the smaller radius; tolerance " + fmt(tol) + ")");
+      if (!all && slot[i] < 0 && slot[j] < 0) continue;
+      const double rmin = std::min(a.radius[i], a.radius[j]);
+      const double ov = a.radius[i] + a.radius[j] - domain_.displacement(x(i), x(j)).norm();
+      if (!(ov > tol * rmin)) continue;
+      if (!all && !added(i) && !added(j) &&
+          ov <= a.radius[i] + a.radius[j] - domain_.displacement(before(i), before(j)).norm() + kDeeper * rmin)
+        continue;  // it overlapped as much before
+      throw InvalidArgument("initial overlap: spheres " + std::to_string(a.id[i]) + " and " +
+                            std::to_string(a.id[j]) + " overlap by " + fmt(ov) + " m (" + fmt(ov / rmin) +
+                            " of the smaller radius; tolerance " + fmt(tol) + ")" +
+                            (all ? "" : what_changed(i, j)));
     }
     for (Index e = lists_.wall_offset[i]; e < lists_.wall_offset[i + 1]; ++e) {
-      const Plane& p = walls_.plane(lists_.wall_index[e]);
-      const double ov = p.overlap(vec3(particles_.arrays().x.data(), i), particles_.arrays().radius[i]);
-      if (ov > tol * particles_.arrays().radius[i])
-        throw InvalidArgument("initial overlap: sphere " + std::to_string(particles_.arrays().id[i]) + " overlaps wall " +
-                              std::to_string(lists_.wall_index[e]) + " by " + fmt(ov) + " m (" +
-                              fmt(ov / particles_.arrays().radius[i]) + " of its radius; tolerance " + fmt(tol) + ")");
+      const int w = lists_.wall_index[e];
+      const bool new_wall = !all && w >= walls_checked_;
+      if (!all && slot[i] < 0 && !new_wall) continue;
+      const Plane& p = walls_.plane(w);
+      const double ov = p.overlap(x(i), a.radius[i]);
+      if (!(ov > tol * a.radius[i])) continue;
+      if (!all && !new_wall && !added(i) &&
+          ov <= p.overlap(before(i), a.radius[i]) + kDeeper * a.radius[i])
+        continue;
+      throw InvalidArgument("initial overlap: sphere " + std::to_string(a.id[i]) + " overlaps wall " +
+                            std::to_string(w) + " by " + fmt(ov) + " m (" + fmt(ov / a.radius[i]) +
+                            " of its radius; tolerance " + fmt(tol) + ")" +
+                            (all ? std::string()
+                             : new_wall ? "; wall " + std::to_string(w) + " was added since the last run: move "
+                                          "the spheres clear of it (or raise initial_overlap)"
+                                        : what_changed(i, -1)));
     }
   }
 }

@@ -115,7 +115,7 @@ std::string wall_too_fast(double speed) {
 
 Id Simulation::add_spheres(std::size_t n, const double* positions, const double* radii,
                            const int* materials, const double* velocities,
-                           const double* angular_velocities) {
+                           const double* angular_velocities, bool check_overlaps) {
   for (std::size_t k = 0; k < n; ++k) {
     require(finite3(positions + 3 * k),
             [&] { return "position of sphere " + std::to_string(k) + " is not finite"; });
@@ -132,6 +132,8 @@ Id Simulation::add_spheres(std::size_t n, const double* positions, const double*
       });
   }
   const Id first = particles_.add(n, positions, radii, materials, velocities, angular_velocities, materials_);
+  if (ran_ && check_overlaps)  // (the first run checks every sphere)
+    for (std::size_t k = 0; k < n; ++k) mark_unchecked(particles_.index(first + static_cast<Id>(k)), true);
   lists_.valid = false;
   energy_ref_valid_ = false;
   run_.last_move = 0;
@@ -264,8 +266,24 @@ void Simulation::prepare_run() {
   contacts_.size(lists_.near_partner.size(), lists_.wall_index.size());
   max_move_ = max_move();
   lists_.cache_terms(list_context());  // the pair table may have changed since the last run
-  if (!ran_) check_initial_overlaps();
+  if (!ran_ || !unchecked_.empty() || walls_checked_ < plane_count()) check_overlaps(!ran_);
   ran_ = true;
+  unchecked_.clear();
+  unchecked_from_.clear();
+  unchecked_listed_.clear();
+  walls_checked_ = plane_count();
+}
+
+void Simulation::mark_unchecked(Index i, bool added) {
+  const Id id = particles_.id(i);
+  if (unchecked_listed_.size() < particles_.id_bound()) unchecked_listed_.resize(particles_.id_bound(), 0);
+  char& listed = unchecked_listed_[static_cast<std::size_t>(id)];
+  if (listed) return;  // (moved again: the centre at the last check is kept)
+  listed = 1;
+  unchecked_.push_back(id);
+  for (int c = 0; c < 3; ++c)
+    unchecked_from_.push_back(added ? std::numeric_limits<double>::quiet_NaN()
+                                    : particles_.arrays().x[3 * static_cast<std::size_t>(i) + c]);
 }
 
 void Simulation::select_law() {
@@ -287,6 +305,7 @@ long Simulation::run(long steps, const std::function<bool()>& should_stop, doubl
     Simulation& s;
     bool failed = true;
     ~Finish() {
+      s.publish();
       s.poll_ = nullptr;
       if (failed) s.stop_.on.store(false, std::memory_order_relaxed);
       s.running_.on.store(false, std::memory_order_release);
@@ -410,6 +429,14 @@ std::vector<std::array<Id, 2>> Simulation::neighbor_pairs() const { return lists
 void Simulation::set_positions(const double* in) {
   energy_ref_valid_ = false;
   run_.last_move = 0;
+  if (ran_) {  // the spheres that move are checked for overlaps at the next run
+    const double* x = particles_.arrays().x.data();
+    for (std::size_t k = 0; k < particles_.size(); ++k) {
+      const double* to = in + 3 * particles_.rank(particles_.arrays().id[k]);
+      if (to[0] != x[3 * k] || to[1] != x[3 * k + 1] || to[2] != x[3 * k + 2])
+        mark_unchecked(static_cast<Index>(k), false);
+    }
+  }
   particles_.scatter(in, particles_.arrays().x.data());
   lists_.valid = false;
 }

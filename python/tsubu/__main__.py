@@ -2,13 +2,16 @@
 ``tsubu resume CHECKPOINT`` continues a scene run from its checkpoint; ``tsubu demo`` runs a small
 embedded scene and prints what it simulated; ``tsubu info`` prints the build's capabilities.
 
-Exit status: 0 on success, 2 for a bad scene file, key or value, or a checkpoint that cannot be
-resumed (one line each: ``tsubu: error: <file>: <path> = <value>: <what is wrong>``), 1 for a run
-that went unstable, 130 after Ctrl-C."""
+Exit status: 0 on success; 2 for a bad command-line option, a bad scene file, key or value, a
+scene that tsubu refuses to run (spheres overlapping, a time step above the stability bound), an
+output directory or file that cannot be written, or a checkpoint that cannot be resumed (one line
+each: ``tsubu: error: <file>: <path> = <value>: <what is wrong>``); 1 for a run that went
+unstable; 130 after Ctrl-C."""
 
 from __future__ import annotations
 
 import argparse
+import os
 import sys
 import time
 
@@ -57,7 +60,7 @@ def demo(args: argparse.Namespace) -> int:
     pairs = int(np.sum(c["wall"] < 0))
     walls = int(np.sum(c["wall"] >= 0))
     print(f"  simulated {sim.time * 1e3:.2f} ms in {sim.step_count} steps, {wall:.2f} s wall time "
-          f"({n * sim.step_count / wall / 1e6:.1f} M particle-steps/s on {sim.threads_used} thread(s))")
+          f"({n * sim.step_count / wall / 1e6:.1f} M particle-steps/s {_threads_text(sim, args.threads)})")
     print(f"  mean height {z.mean() * 1e3:.3f} mm (started at {z0 * 1e3:.3f} mm), "
           f"lowest centre {z.min() * 1e3:.4f} mm")
     print(f"  contacts: {pairs} sphere-sphere, {walls} sphere-wall; max overlap "
@@ -69,15 +72,38 @@ def demo(args: argparse.Namespace) -> int:
     return 0
 
 
+def _threads_text(sim: Simulation, asked: int | None) -> str:
+    """"on N threads", and why a run on one thread used no more than that."""
+    used = sim.threads_used
+    text = f"on {used} thread" + ("s" if used != 1 else "")
+    if used != 1 or asked == 1:
+        return text
+    if not openmp:
+        return text + ": this build has no OpenMP"
+    if sim.size < sim.parallel_min:
+        return (text + f": {sim.size} beads are below parallel_min = {sim.parallel_min}, under "
+                "which a scene runs on one thread (--nx, --nz for more beads)")
+    return text
+
+
 def info(_: argparse.Namespace) -> int:
     print(f"tsubu {__version__}; OpenMP: {'yes' if openmp else 'no (single-threaded)'}; "
           f"python {sys.version.split()[0]}")
     return 0
 
 
-def _execute(scene, source: str, what: str, until: float | None, progress: bool | None) -> int:
+def _execute(scene, source: str, what: str, until: float | None, progress: bool | None,
+             output_option: str) -> int:
+    """Run ``scene`` and report; ``output_option`` names where its output directory came from
+    (``--output`` or the scene's key), for the message when it cannot be written."""
     from .simulation import InstabilityError
-    steps_before = scene.simulation.step_count
+    sim = scene.simulation
+    problem = _output_problem(scene)
+    if problem is not None:
+        print(f"tsubu: error: {source}: {output_option} = {scene.output_directory}: {problem}",
+              file=sys.stderr)
+        return 2
+    steps_before = sim.step_count
     start = time.perf_counter()
     try:
         scene.run(until=until, progress=progress)
@@ -85,13 +111,19 @@ def _execute(scene, source: str, what: str, until: float | None, progress: bool 
         print(f"tsubu: error: {source}: the run went unstable: {e}", file=sys.stderr)
         return 1
     except KeyboardInterrupt:
-        sim = scene.simulation
         saved = f"; checkpoint in {scene.checkpoint['path']}" if scene.checkpoint is not None else ""
         print(f"\ntsubu: interrupted at t = {sim.time:.6g} s (step {sim.step_count}){saved}",
               file=sys.stderr)
         return 130
+    except OSError as e:  # output or a checkpoint that cannot be written
+        print(f"tsubu: error: {source}: cannot write the output: {_os_error(e)}", file=sys.stderr)
+        return 2
+    except (ValueError, TypeError) as e:  # what the library refuses in the scene as built
+        when = ("the scene cannot start" if sim.step_count == steps_before
+                else f"the run stopped at t = {sim.time:.6g} s (step {sim.step_count})")
+        print(f"tsubu: error: {source}: {when}: {_one_line(e)}", file=sys.stderr)
+        return 2
     wall = time.perf_counter() - start
-    sim = scene.simulation
     steps = sim.step_count - steps_before
     rate = sim.size * steps / max(wall, 1e-9)
     print(f"tsubu {what} {source}: {sim.size} spheres, t = {sim.time:.6g} s (step {sim.step_count}), "
@@ -99,6 +131,33 @@ def _execute(scene, source: str, what: str, until: float | None, progress: bool 
     if scene.output or scene.checkpoint is not None:
         print(f"  output in {scene.output_directory}")
     return 0
+
+
+def _output_problem(scene) -> str | None:
+    """Why the output directory of ``scene`` cannot be written, or None (it is created when
+    missing, as the run would create it): checked before the run, not at its end."""
+    if not scene.output and scene.checkpoint is None:
+        return None
+    directory = scene.output_directory
+    try:
+        os.makedirs(directory, exist_ok=True)
+    except FileExistsError:
+        return "not a directory (a file of that name exists)"
+    except OSError as e:
+        return f"cannot create the directory: {e.strerror or e}"
+    if not os.access(directory, os.W_OK | os.X_OK):
+        return "cannot write into the directory (permission denied)"
+    return None
+
+
+def _os_error(e: OSError) -> str:
+    """An OSError in one line: the file it names, then what went wrong."""
+    text = e.strerror or str(e)
+    return f"{e.filename}: {text}" if e.filename else text
+
+
+def _one_line(e: Exception) -> str:
+    return " ".join(str(e).split()) or type(e).__name__
 
 
 def _scene_error(e) -> int:
@@ -113,7 +172,8 @@ def run(args: argparse.Namespace) -> int:
         scene = load_scene(args.scene, threads=args.threads, output_directory=args.output)
     except SceneError as e:
         return _scene_error(e)
-    return _execute(scene, args.scene, "run", None, False if args.no_progress else None)
+    where = "--output" if args.output is not None else "output.directory"
+    return _execute(scene, args.scene, "run", None, False if args.no_progress else None, where)
 
 
 def resume(args: argparse.Namespace) -> int:
@@ -136,7 +196,8 @@ def resume(args: argparse.Namespace) -> int:
         until = scene.simulation.time + args.time
     elif args.until is not None:
         until = args.until
-    return _execute(scene, args.checkpoint, "resume", until, False if args.no_progress else None)
+    where = "--output" if args.output is not None else "output directory"
+    return _execute(scene, args.checkpoint, "resume", until, False if args.no_progress else None, where)
 
 
 def _seconds(text: str) -> float:
@@ -150,6 +211,20 @@ def _seconds(text: str) -> float:
 
 
 def _threads(text: str) -> int:
+    """--threads: an integer in the range Simulation's ``threads`` accepts (checked here, so that
+    a bad value is reported as the option's, not as the scene's ``simulation.threads``)."""
+    from ._options import DECLARATIONS
+    most = DECLARATIONS["threads"].maximum
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"must be an integer, got {text!r}") from None
+    if not 1 <= value <= most:
+        raise argparse.ArgumentTypeError(f"must be an integer from 1 to {most}, got {text!r}")
+    return value
+
+
+def _count(text: str) -> int:
     try:
         value = int(text)
     except ValueError:
@@ -163,10 +238,12 @@ def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="tsubu", description=__doc__)
     sub = parser.add_subparsers(dest="command", required=True)
     p = sub.add_parser("demo", help="drop a few thousand beads into a box and report")
-    p.add_argument("--nx", type=int, default=10, help="beads along x and y (default 10)")
-    p.add_argument("--nz", type=int, default=20, help="layers (default 20)")
-    p.add_argument("--time", type=float, default=0.03, help="simulated time in s (default 0.03)")
-    p.add_argument("--threads", type=int, default=None, help="OpenMP threads (default: all)")
+    p.add_argument("--nx", type=_count, default=10, help="beads along x and y (default 10)")
+    p.add_argument("--nz", type=_count, default=20, help="layers (default 20)")
+    p.add_argument("--time", type=_seconds, default=0.03, help="simulated time in s (default 0.03)")
+    p.add_argument("--threads", type=_threads, default=None,
+                   help="OpenMP threads (default: all; a scene below the Simulation's "
+                        "parallel_min beads runs on one)")
     p.add_argument("--progress", action=argparse.BooleanOptionalAction, default=None,
                    help="show a progress bar (default: only on an interactive terminal)")
     p.set_defaults(func=demo)

@@ -12,6 +12,7 @@ from __future__ import annotations
 import math
 import numbers
 import os
+import reprlib
 import sys
 import warnings
 
@@ -83,13 +84,35 @@ def fits_in_memory(name: str, count: int, what: str = "spheres") -> None:
             f"each), more than the {available / 2**30:.3g} GiB of memory available")
 
 
+def _bool_inside(value):
+    """The innermost list or tuple of a (nested) list or tuple that holds a bool (Python's or
+    numpy's) or a bool array, or None: numpy would turn ``(0, 0, True)`` into the numbers
+    (0, 0, 1) without a word."""
+    stack = [value]
+    while stack:
+        v = stack.pop()
+        if isinstance(v, (list, tuple)):
+            for item in v:
+                if isinstance(item, (bool, np.bool_)) or (isinstance(item, np.ndarray)
+                                                          and item.dtype.kind == "b"):
+                    return v
+                if isinstance(item, (list, tuple)):
+                    stack.append(item)
+    return None
+
+
 def _float_array(name: str, value, expected: str) -> np.ndarray:
     """``value`` as a new C-contiguous float64 array (never a view of the caller's data); refuses
-    booleans, complex numbers, strings and other non-numbers with TypeError, and counts that
-    cannot fit in memory (a broadcast view of a billion rows) with MemoryError."""
+    booleans (also inside a sequence of numbers), complex numbers, strings and other non-numbers
+    with TypeError, and counts that cannot fit in memory (a broadcast view of a billion rows)
+    with MemoryError."""
     shape = getattr(value, "shape", None)
     if isinstance(shape, tuple) and len(shape) >= 1 and all(isinstance(k, int) for k in shape):
         fits_in_memory(name, shape[0], "rows")
+    holder = value if isinstance(value, (bool, np.bool_)) else _bool_inside(value)
+    if holder is not None:
+        raise TypeError(f"{name} must be {expected} of real numbers, not booleans, got "
+                        f"{reprlib.repr(holder)}")
     try:
         a = np.asarray(value)
     except (TypeError, ValueError):

@@ -52,10 +52,15 @@ def write_atomically(path: Path, data: bytes) -> None:
     """Write ``data`` (bytes) to ``path`` (a str or path) so that the file is, at every moment, either the old one or
     the complete new one: a temporary file in the same folder, flushed and fsync'ed, renamed
     over ``path``, and the folder fsync'ed so that the rename itself survives a crash.
-    OSError when the file cannot be written (``path`` is then left as it was)."""
+    OSError when the file cannot be written (``path`` is then left as it was); when the
+    folder does not exist (FileNotFoundError), is not a folder (NotADirectoryError) or cannot be
+    written into, the error's message and ``filename`` name ``path``, not the temporary file."""
     path = Path(path)
     folder = path.parent if str(path.parent) else Path(".")
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=folder)
+    try:
+        fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=folder)
+    except OSError as e:
+        raise _folder_error(e, path, folder) from None
     try:
         with os.fdopen(fd, "wb") as f:
             f.write(data)
@@ -69,6 +74,21 @@ def write_atomically(path: Path, data: bytes) -> None:
             pass
         raise
     sync_folder(folder)
+
+
+def _folder_error(error: OSError, path: Path, folder: Path) -> OSError:
+    """The OSError of a file that could not be created in ``folder``, said of ``path`` (the file
+    asked for) rather than of the temporary file beside it."""
+    if error.errno is None:
+        return error
+    if isinstance(error, FileNotFoundError):
+        why = f"cannot write the file: the directory {str(folder)!r} does not exist (create it first)"
+    elif isinstance(error, NotADirectoryError):
+        why = f"cannot write the file: {str(folder)!r}, or a folder above it, is not a directory"
+    else:
+        why = f"cannot write the file in the directory {str(folder)!r}: {error.strerror or error}"
+    # str() of the error: "[Errno 2] cannot write the file: the directory ... : '<path>'"
+    return type(error)(error.errno, why, str(path))
 
 
 def sync_folder(folder) -> None:
@@ -96,6 +116,12 @@ def _read(path: Path) -> tuple[int, bytes]:
     path = Path(path)
     with open(path, "rb") as f:
         data = f.read()
+    return _unframe(data, path)
+
+
+def _unframe(data: bytes, path) -> tuple[int, bytes]:
+    """The format version and the payload of a checkpoint's bytes (``path`` names them in
+    messages)."""
     if len(data) < _HEADER.size or not data.startswith(MAGIC):
         if len(data) < len(MAGIC) and MAGIC.startswith(data):
             raise CheckpointError(f"{path}: truncated checkpoint ({len(data)} bytes)")
@@ -147,6 +173,17 @@ def load(path, threads=None):
     return _restore(payload, path, threads)
 
 
+def decode(data: bytes, materials=None):
+    """A new Simulation from a checkpoint's bytes (what :func:`encode` gives: copies and pickles
+    of a Simulation). ``materials``: Material objects to use in place of those the bytes
+    describe (the same number, in the same order), so that a copy shares them, or a pickle
+    keeps their identity."""
+    version, payload = _unframe(data, "<copy of a Simulation>")
+    if version != FORMAT_VERSION:
+        raise CheckpointError(f"a copy of a Simulation in checkpoint format {version}, not {FORMAT_VERSION}")
+    return _restore(payload, "<copy of a Simulation>", materials=materials)
+
+
 def _restore_inserters(sim, saved_inserters: list) -> None:
     """Re-attach the inserters a checkpoint saved (their configuration and progress) to ``sim``."""
     if not saved_inserters:
@@ -159,8 +196,9 @@ def _restore_inserters(sim, saved_inserters: list) -> None:
         sim._inserters.append(inserter)
 
 
-def _restore(payload: bytes, path, threads=None):
-    """A new Simulation from a format-2 payload."""
+def _restore(payload: bytes, path, threads=None, materials=None):
+    """A new Simulation from a format-2 payload (with ``materials`` in place of those it
+    describes, if given)."""
     from .material import Material
     from .simulation import Simulation
 
@@ -177,8 +215,11 @@ def _restore(payload: bytes, path, threads=None):
         if len(meta["materials"]) != core.material_count:
             raise CheckpointError(f"{len(meta['materials'])} materials in the JSON section, "
                                   f"{core.material_count} in the core's")
+        if materials is not None and len(materials) != len(meta["materials"]):
+            raise CheckpointError(f"{len(materials)} materials given for the "
+                                  f"{len(meta['materials'])} of the checkpoint")
         for index, fields in enumerate(meta["materials"]):
-            m = Material(**fields)
+            m = Material(**fields) if materials is None else materials[index]
             sim._material_index[id(m)] = index
             sim._materials.append(m)
         sim._scene_materials = [sim._materials[k] for k in meta["scene_materials"]]

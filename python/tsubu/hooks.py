@@ -27,6 +27,8 @@ import time as _time
 from pathlib import Path
 from typing import Protocol
 
+import numpy as np
+
 # The rest of this module is the run loop's own machinery (progress bar, periodic checkpoints).
 __all__ = ["Hook"]
 
@@ -58,8 +60,9 @@ class Hook(Protocol):
     """
 
     def next_step(self, sim) -> "int | None":
-        """The absolute step count (>= ``sim.step_count``) at which :meth:`act` must next be
-        called, or None for never. Called before every stretch of the run, so the answer may
+        """The absolute step count (>= ``sim.step_count``), an int (Python's or numpy's; a
+        float, bool or string ends the run with a TypeError naming the hook), at which
+        :meth:`act` must next be called, or None for never. Called before every stretch of the run, so the answer may
         change as the run goes on. A hook that writes every k steps returns the next multiple
         of k, the current step included unless it has already acted there (two consecutive
         runs must not act twice at the same step)."""
@@ -87,6 +90,20 @@ def check_hook(hook, name: str = "output") -> None:
                         f"{', '.join(missing)}")
 
 
+def due_step(hook, sim) -> "int | None":
+    """``hook.next_step(sim)``, checked: None, or a step count as an int (Python's or numpy's
+    integers; not a bool, a float such as 10.0 or 10.5, or a string). TypeError naming the hook
+    and the value otherwise."""
+    due = hook.next_step(sim)
+    if due is None:
+        return None
+    if isinstance(due, (bool, np.bool_)) or not isinstance(due, (int, np.integer)):
+        raise TypeError(f"run hook {hook!r}: next_step returned {due!r} ({type(due).__name__}); it "
+                        "must return a whole step count as an int (the step at which act is due, "
+                        ">= sim.step_count) or None")
+    return int(due)
+
+
 def interactive() -> bool:
     """Whether a progress bar belongs on stderr by default: a terminal, not CI, not a notebook."""
     if os.environ.get("CI") or os.environ.get("TSUBU_NO_PROGRESS"):
@@ -100,13 +117,23 @@ def interactive() -> bool:
 
 
 class ProgressBar:
-    """A tqdm bar over the steps of a run, with simulated time and particle-steps per second.
+    """A tqdm bar over the steps of a run: steps done and total, the time elapsed and left, and
+    the simulated time, the sphere count, steps/s and particle-steps/s.
+
+    While the run goes on both rates are *current* ones, over the wall time since the previous
+    update (smoothed over the last few updates): particle-steps/s is the sphere count times
+    steps/s. The final line, when the bar closes, shows both as averages over the whole run,
+    marked "mean", and the steps actually done (a run stopped by Ctrl-C, an error or
+    ``request_stop`` shows where it stopped).
 
     ``delay``: seconds before the bar shows (a short run shows none). The run advances in
     stretches of about ``refresh`` seconds of wall time between updates.
     """
 
-    def __init__(self, sim, steps: int, delay: float, refresh: float = 0.2):
+    # The weight of the newest update in the current rates (as tqdm's own smoothing).
+    SMOOTHING = 0.3
+
+    def __init__(self, sim, steps: int, delay: float, refresh: float = 0.2, clock=_time.perf_counter):
         try:
             from tqdm.auto import tqdm
         except ImportError:
@@ -114,10 +141,17 @@ class ProgressBar:
                               "pip install 'tsubu[progress]' (or pip install tqdm)") from None
         self.sim = sim
         self.refresh = refresh
-        self.bar = tqdm(total=steps, unit="step", delay=delay, dynamic_ncols=True,
-                        desc="tsubu", leave=True, file=sys.stderr)
-        self.start = _time.perf_counter()
+        self.clock = clock
+        # tqdm's own rate (an average over its refreshes) is left out: the rates are the
+        # postfix's, both measured over the same updates.
+        self.bar = tqdm(total=steps, unit="step", delay=delay, dynamic_ncols=True, desc="tsubu",
+                        leave=True, file=sys.stderr,
+                        bar_format="{l_bar}{bar}| {n_fmt}/{total_fmt} [{elapsed}<{remaining}{postfix}]")
+        self.start = self.last = clock()
         self.first_step = sim.step_count
+        self.counted = 0  # steps shown so far
+        self.particle_steps = 0  # sum of the sphere count over the steps shown
+        self.recent_steps = self.recent_seconds = 0.0  # smoothed steps and seconds per update
         self.stretch = 1  # steps per stretch, grown to about `refresh` seconds each
 
     def limit(self, now: int) -> int:
@@ -125,16 +159,50 @@ class ProgressBar:
         return now + self.stretch
 
     def update(self, taken: int, seconds: float) -> None:
-        self.bar.update(taken)
+        """``taken`` more steps, of which the engine spent ``seconds`` [s] (sizes the next
+        stretch); the rates are measured on the wall clock (hooks included)."""
+        now = self.clock()
         if taken > 0 and seconds > 0:
             per_step = seconds / taken
             self.stretch = max(1, min(int(self.refresh / per_step), 4 * self.stretch))
-        elapsed = max(_time.perf_counter() - self.start, 1e-9)
-        rate = self.sim.size * (self.sim.step_count - self.first_step) / elapsed
-        self.bar.set_postfix_str(f"t = {self.sim.time:.4g} s, {rate / 1e6:.3g} M particle-steps/s",
+        wall = now - self.last
+        self.last = now
+        if wall > 0:
+            a = self.SMOOTHING if self.recent_seconds > 0 else 1.0
+            self.recent_steps = a * taken + (1 - a) * self.recent_steps
+            self.recent_seconds = a * wall + (1 - a) * self.recent_seconds
+        rate = self.recent_steps / self.recent_seconds if self.recent_seconds > 0 else None
+        # the postfix first: tqdm's update may redraw the bar, which should show this stretch's
+        self.bar.set_postfix_str(self._rates(rate, None if rate is None else rate * self.sim.size),
                                  refresh=False)
+        self._count(taken)
+
+    def _count(self, taken: int) -> None:
+        self.bar.update(taken)
+        self.counted += taken
+        self.particle_steps += self.sim.size * taken
+
+    def _rates(self, steps_per_second, particle_steps_per_second, mean: bool = False) -> str:
+        text = f"t = {self.sim.time:.4g} s, {self.sim.size} spheres"
+        if steps_per_second is not None:
+            label = "mean " if mean else ""
+            steps = f"{steps_per_second:,.0f}" if steps_per_second >= 100 else f"{steps_per_second:.3g}"
+            text += (f", {label}{steps} step/s, "
+                     f"{particle_steps_per_second / 1e6:.3g} M particle-steps/s")
+        return text
 
     def close(self) -> None:
+        """The final line: the steps actually done (also those of a stretch that Ctrl-C or an
+        error cut short) and the whole run's mean rates."""
+        done = self.sim.step_count - self.first_step
+        if done != self.counted:  # a stretch ended by an exception: its steps never counted
+            self.bar.n = done
+            self.particle_steps += self.sim.size * (done - self.counted)
+            self.counted = done
+        elapsed = self.clock() - self.start
+        if elapsed > 0 and done > 0:
+            self.bar.set_postfix_str(self._rates(done / elapsed, self.particle_steps / elapsed,
+                                                 mean=True), refresh=False)
         self.bar.close()
 
 

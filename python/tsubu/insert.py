@@ -269,10 +269,13 @@ class Inserter:
                                 carried + np.argsort(-radii[carried:], kind="stable")])
         positions, placed = self._place(sim, radii, order)
         if placed.any():
-            ids = sim.add_spheres(
+            # (placed clear of the spheres here: left out of the next run's overlap check, which
+            # would otherwise refuse those that the region puts into a wall)
+            ids = sim._add_spheres(
                 positions[placed], radii[placed], self.material,
                 velocities=np.tile(self.velocity, (int(placed.sum()), 1)),
-                angular_velocities=np.tile(self.angular_velocity, (int(placed.sum()), 1)))
+                angular_velocities=np.tile(self.angular_velocity, (int(placed.sum()), 1)),
+                check_overlaps=False)
             self._inserted += len(ids)
             self._inserted_mass += float(np.sum(sim.masses[ids]))
         # what found no room stays at the head of the queue, in stream order

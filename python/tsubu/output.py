@@ -20,15 +20,18 @@ the CSV and npz dumps need only numpy.
 from __future__ import annotations
 
 import csv
+import errno
 import math
 import os
 import re
 import tempfile
+import weakref
 import xml.etree.ElementTree as ET
+from pathlib import Path
 
 import numpy as np
 
-from .checkpoint import sync_folder
+from .checkpoint import _folder_error, sync_folder
 
 __all__ = [
     "VTKOutput", "NpzOutput", "CSVOutput", "write_vtk", "save_npz", "save_csv",
@@ -277,7 +280,10 @@ def _write_atomically(final_path: str, write) -> None:
     meanwhile) never sees half a file."""
     directory, base = os.path.split(final_path)
     stem, extension = os.path.splitext(base)
-    fd, tmp = tempfile.mkstemp(prefix=f".{stem}.", suffix=extension, dir=directory or ".")
+    try:
+        fd, tmp = tempfile.mkstemp(prefix=f".{stem}.", suffix=extension, dir=directory or ".")
+    except OSError as e:  # said of final_path, not of the temporary file
+        raise _folder_error(e, Path(final_path), Path(directory or ".")) from None
     os.close(fd)
     try:
         write(tmp[: -len(extension)])
@@ -412,10 +418,19 @@ def _check_every(every) -> int:
 
 # ---- .pvd collections ----------------------------------------------------------------------------
 
+# The Simulation (a weak reference) whose frames each index lists, by the index's real path,
+# for the indexes written by this process (see _Series.claim).
+_INDEX_OWNERS: dict = {}
+
+
 class _Series:
     """A time series of files listed in a .pvd collection (or a CSV index), rewritten atomically
     after each frame. Frames are kept by step; writing step s drops the frames listed at s and
-    after (a run that went back, e.g. resumed from a checkpoint, replaces its old future)."""
+    after (a run that went back, e.g. resumed from a checkpoint, replaces its old future).
+
+    Before each frame a writer claims the index for its Simulation (:meth:`claim`): within one
+    process, a Simulation whose first frame would replace every frame that another Simulation
+    wrote there is refused."""
 
     def __init__(self, directory: str, index_name: str, pattern: str):
         self.path = os.path.join(directory, index_name)
@@ -440,6 +455,32 @@ class _Series:
             match = self.pattern.fullmatch(file)
             if match:
                 yield int(match.group(1)), float(entry.attrib["timestep"]), file
+
+    def claim(self, sim, step: int, writer: str) -> None:
+        """Refuse (FileExistsError, naming the directory and what to do) to write the frame of
+        ``step`` for ``sim`` when the index lists frames that another Simulation of this
+        process wrote and that frame would replace them all (a second scene writing into the
+        same directory under the same name); otherwise make ``sim`` the index's owner.
+
+        A run resumed from a checkpoint keeps the frames before its first one, and is let
+        through; so is a series left by another process (rerunning a script replaces its
+        output, as a rerun is meant to)."""
+        key = os.path.realpath(self.path)
+        owner = _INDEX_OWNERS.get(key)
+        if owner is not None and owner() is sim:
+            return
+        if owner is not None:
+            self.frames = self._load()  # as the other Simulation left it
+            if self.frames and step <= min(self.frames):
+                first, last = min(self.frames), max(self.frames)
+                raise FileExistsError(
+                    errno.EEXIST,
+                    f"{writer}: the directory {os.path.dirname(self.path)!r} already holds a series "
+                    f"{os.path.basename(self.path)} of {len(self.frames)} frames (steps {first} to "
+                    f"{last}) written by another Simulation of this process, which this run's first "
+                    f"frame (step {step}) would replace: give each Simulation its own directory or "
+                    "name= (or delete the old files first)", self.path)
+        _INDEX_OWNERS[key] = weakref.ref(sim)
 
     def add(self, step: int, time: float, file: str) -> None:
         if self.frames is None:
@@ -527,7 +568,11 @@ class VTKOutput(_EveryK):
     and files: open these in ParaView) are rewritten under a temporary name, flushed to disk and
     renamed, so that a run killed at any moment leaves valid ones. When a collection already
     exists (a run resumed from a checkpoint into the same directory), the frames it lists before
-    the first step written are kept and those from that step on are replaced.
+    the first step written are kept and those from that step on are replaced. Within one
+    process, a Simulation whose first frame would replace every frame another Simulation wrote
+    into the collection is refused (FileExistsError, before any file is written): give each
+    its own ``directory`` or ``name`` (a series left by another process, as when a script is
+    run again, is replaced).
 
     Raises
     ------
@@ -535,6 +580,9 @@ class VTKOutput(_EveryK):
         When pyevtk is not installed (``pip install 'tsubu[vtk]'``), at construction.
     TypeError, ValueError
         For a bad ``every``, ``name`` or ``extent``.
+    FileExistsError
+        From a run, at its first frame: the collection holds the frames of another Simulation of
+        this process, which that frame would all replace (see Notes).
     """
 
     def __init__(self, directory, every: int, name: str = "particles", contacts: bool = True,
@@ -556,6 +604,8 @@ class VTKOutput(_EveryK):
                                             rf"{esc}_walls_(\d+)\.vtp")
 
     def _write(self, sim) -> None:
+        for series in self._series.values():
+            series.claim(sim, sim.step_count, f"VTKOutput(name={self.name!r})")
         written = write_vtk(sim, self.directory, self.name, self.contacts, self.walls, self.extent)
         for kind, path in written.items():
             self._series[kind].add(sim.step_count, sim.time, os.path.basename(path))
@@ -665,7 +715,9 @@ class CSVOutput(_EveryK):
     ``every`` steps (a step is never written twice): ``<directory>/<name>_<step>.csv`` and, if
     ``contacts``, ``<name>_contacts_<step>.csv``; after each frame the index
     ``<name>_frames.csv`` (columns ``step,time,file``) is rewritten atomically. TypeError /
-    ValueError for a bad ``every`` or ``name``."""
+    ValueError for a bad ``every`` or ``name``; FileExistsError from a run whose first frame would
+    replace every frame another Simulation of this process listed in the index (as
+    :class:`VTKOutput`)."""
 
     def __init__(self, directory, every: int, name: str = "state", contacts: bool = True):
         super().__init__(every)
@@ -677,6 +729,7 @@ class CSVOutput(_EveryK):
 
     def _write(self, sim) -> None:
         step = sim.step_count
+        self._index.claim(sim, step, f"CSVOutput(name={self.name!r})")
         path = os.path.join(self.directory, f"{self.name}_{step}.csv")
         contacts_path = (os.path.join(self.directory, f"{self.name}_contacts_{step}.csv")
                          if self.contacts else None)

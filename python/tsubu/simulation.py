@@ -58,23 +58,25 @@ class PerformanceWarning(UserWarning):
     """
 
 
-def _one_thread_at_a_time(*any_thread: str):
+def _one_thread_at_a_time(*any_thread: str, refused: dict | None = None):
     """Class decorator: every public method and property of the class, but those named, runs
     under the instance's lock; while a run is in progress (``_running``) calls are refused.
 
     Only ``run`` releases the GIL, so a run is the one call that can overlap another thread's
     use of the engine: calls made meanwhile raise RuntimeError instead of racing with it. A
     call that finds another thread in a short call waits for it (unless that call turns out
-    to be a run)."""
+    to be a run). ``refused`` maps private members to guard too to the message their refusal
+    gives."""
+    refused = refused or {}
 
-    def guard(function):
+    def guard(function, message=None):
         @functools.wraps(function)
         def guarded(self, *args, **kwargs):
             lock = self._lock
             if not lock.acquire(blocking=False):
                 while True:
                     if self._running:
-                        raise RuntimeError(
+                        raise RuntimeError(message or
                             "Simulation is running in another thread: a Simulation is used by "
                             "one thread at a time (request_stop() ends the run; wait for run to "
                             "return)")
@@ -82,7 +84,7 @@ def _one_thread_at_a_time(*any_thread: str):
                         break
             try:
                 if self._running:  # this thread's own run: a signal handler called during it
-                    raise RuntimeError(
+                    raise RuntimeError(message or
                         f"Simulation.{function.__name__} called during the Simulation's own run "
                         "(from a signal handler or a callback): wait for run to return")
                 return function(self, *args, **kwargs)
@@ -93,6 +95,9 @@ def _one_thread_at_a_time(*any_thread: str):
 
     def decorate(cls):
         for name, member in list(vars(cls).items()):
+            if name in refused:
+                setattr(cls, name, guard(member, refused[name]))
+                continue
             if (name in any_thread or (name.startswith("_") and name != "__len__")
                     or isinstance(member, (staticmethod, classmethod))):
                 continue
@@ -107,7 +112,14 @@ def _one_thread_at_a_time(*any_thread: str):
     return decorate
 
 
-@_one_thread_at_a_time("request_stop", "running")
+_COPY_REFUSED = (
+    "a Simulation cannot be copied or pickled while it runs: a copy goes through its checkpoint "
+    "(save/load), which is taken between runs or from a run hook; copy it after run returns "
+    "(request_stop() ends the run), or save() it from a run hook and load() the file")
+
+
+@_one_thread_at_a_time("request_stop", "running", "step_count", "time",
+                       refused={"__reduce__": _COPY_REFUSED})
 class Simulation:
     """Rigid spheres with linear (Kelvin-Voigt) or Hertz-Mindlin contacts, plane walls and gravity.
 
@@ -178,7 +190,10 @@ class Simulation:
         smaller radius, > 0. Default 0.5.
     initial_overlap : float
         The first run refuses (ValueError) initial overlaps larger than this fraction of the
-        smaller radius, >= 0. Default 0.05.
+        smaller radius, >= 0. Default 0.05. Later runs refuse those that spheres added or moved
+        (:meth:`add_spheres`, :attr:`positions`), or walls added, since the last run made
+        (an overlap the change did not deepen, as when a pack is moved as a whole, stays
+        accepted); the spheres of inserters (:meth:`add_inserter`) are placed clear by them.
     allow_unstable_dt : bool
         Run even if dt exceeds the stability bound (the instability check still applies).
         Default False.
@@ -201,8 +216,25 @@ class Simulation:
     the same results as one after the other). One Simulation is used by one thread at a time:
     while it runs, a call from another thread (another run, a setter, reading an array, ...)
     raises RuntimeError("Simulation is running in another thread ..."); only
-    :meth:`request_stop` and :attr:`running` may be called meanwhile. Calls that overlap a
-    short call of another thread wait for it.
+    :meth:`request_stop`, :attr:`running`, and the progress counters :attr:`step_count` and
+    :attr:`time` (those of a step completed) may be used meanwhile, say by a monitor thread.
+    Calls that overlap a short call of another thread wait for it.
+
+    **Arrays.** The arrays it returns (:attr:`positions`, :attr:`velocities`, :attr:`radii`,
+    :attr:`gravity`, the arrays of :meth:`plane`, ...) are read-only copies: writing into one
+    raises ValueError ("assignment destination is read-only") rather than change nothing.
+    Assign the property to change the state: ``sim.positions = new`` (``x =
+    sim.positions.copy()`` gives an array to edit first).
+
+    **Copies.** ``copy.copy``, ``copy.deepcopy`` and ``pickle`` (so ``multiprocessing`` and
+    Dask) give an independent Simulation through the checkpoint format (:meth:`save`,
+    :meth:`load`): the same state, inserters with their progress, and ``metadata`` (which
+    must be JSON-able), whose runs continue bit for bit as this one's would, for any thread
+    count. The materials are shared by ``copy.copy`` (they are immutable), copied by
+    ``deepcopy`` and pickling. Not carried: a pending :meth:`request_stop`, the diagnostics
+    (:meth:`phase_seconds`, :attr:`rebuild_count`, ...: from zero), and the run hooks passed to
+    :meth:`run` (they belong to that run). A Simulation is not copied while it runs
+    (RuntimeError): copy it between runs, or from a run hook.
     """
 
     def __init__(self, gravity=(0.0, 0.0, -9.81), dt=None, threads=None, seed: int = 0,
@@ -248,9 +280,10 @@ class Simulation:
     # ---- options ---------------------------------------------------------------------------
     @property
     def gravity(self) -> np.ndarray:
-        """Gravitational acceleration [m/s^2], shape (3,). Assignable (ValueError for a
-        non-finite vector or one that would give a sphere an energy beyond 1e300 J)."""
-        return np.array(self._core.gravity)
+        """Gravitational acceleration [m/s^2], shape (3,), a read-only copy. Assignable
+        (ValueError for a non-finite vector or one that would give a sphere an energy beyond
+        1e300 J)."""
+        return _read_only(np.array(self._core.gravity))
 
     @gravity.setter
     def gravity(self, value) -> None:
@@ -455,7 +488,19 @@ class Simulation:
         MemoryError
             Before anything is allocated, for more spheres than the available memory holds
             (about 400 bytes each).
+
+        Notes
+        -----
+        Spheres added after the first run are checked for overlaps when the next run starts, as
+        the first run checks all (``initial_overlap``): that run raises ValueError naming the
+        spheres (or the wall) and takes no step.
         """
+        return self._add_spheres(positions, radius, material, velocities, angular_velocities)
+
+    def _add_spheres(self, positions, radius, material, velocities=None, angular_velocities=None,
+                     check_overlaps: bool = True) -> np.ndarray:
+        """:meth:`add_spheres`; ``check_overlaps=False`` leaves the spheres out of the next run's
+        overlap check (for inserters, which place them clear of the others themselves)."""
         x = _checks.points("positions", positions)
         n = x.shape[0]
         _checks.fits_in_memory("positions", self.size + n)
@@ -469,7 +514,7 @@ class Simulation:
         _energies_fit("positions", mass, r, x=x, g=self.gravity)
         _energies_fit("velocities", mass, r, v=v)
         _energies_fit("angular_velocities", mass, r, w=w)
-        first = self._core.add_spheres(x, r, np.full(n, mat, dtype=np.intc), v, w)
+        first = self._core.add_spheres(x, r, np.full(n, mat, dtype=np.intc), v, w, check_overlaps)
         return np.arange(first, first + n, dtype=np.int64)
 
     def add_sphere(self, position, radius: float, material: Material, velocity=None,
@@ -547,10 +592,7 @@ class Simulation:
         if coefficients is not None:
             if point is not None or normal is not None:
                 raise ValueError("give either coefficients or point and normal, not both")
-            try:
-                c = np.asarray(coefficients, dtype=float)
-            except (TypeError, ValueError):
-                raise TypeError(f"coefficients must be 4 numbers (a, b, c, d), got {coefficients!r}") from None
+            c = _checks._float_array("coefficients", coefficients, "4 numbers (a, b, c, d)")
             if c.shape != (4,) or not np.all(np.isfinite(c)):
                 raise ValueError(f"coefficients must be 4 finite numbers (a, b, c, d), got {coefficients!r}")
             scale = float(np.max(np.abs(c[:3])))
@@ -616,8 +658,8 @@ class Simulation:
         -------
         dict
             ``point`` [m], ``normal`` (unit), ``velocity`` [m/s], ``angular_velocity``
-            [rad/s], each a numpy array of shape (3,), and ``material`` (the
-            :class:`Material`).
+            [rad/s], each a read-only numpy array of shape (3,) (a copy: change the motion
+            with :meth:`set_plane_motion`), and ``material`` (the :class:`Material`).
 
         Raises
         ------
@@ -631,7 +673,8 @@ class Simulation:
             raise ValueError(f"wall {wall} does not exist: the simulation has {self._core.plane_count} "
                              f"walls (wall must be < {self._core.plane_count})")
         d = self._core.plane(wall)
-        return {k: (np.array(v) if k != "material" else self._materials_by_index(v)) for k, v in d.items()}
+        return {k: (_read_only(np.array(v)) if k != "material" else self._materials_by_index(v))
+                for k, v in d.items()}
 
     def _materials_by_index(self, index: int) -> Material:
         for m in self._materials:
@@ -817,10 +860,10 @@ class Simulation:
             now = self._core.step_count
             target = end
             for hook in everything:
-                due = hook.next_step(self)
+                due = hooks.due_step(hook, self)
                 if due is not None and due <= now:
                     hook.act(self)
-                    due = hook.next_step(self)
+                    due = hooks.due_step(hook, self)
                     if due is not None and due <= now:
                         raise RuntimeError(f"run hook {hook!r} acted at step {now} and asks for step "
                                            f"{due} again: next_step must move on after act")
@@ -910,12 +953,15 @@ class Simulation:
 
     @property
     def time(self) -> float:
-        """Simulated time [s]."""
+        """Simulated time [s]. Readable from any thread, also during a run (then the time of a
+        step completed, published by the run between its steps)."""
         return self._core.time
 
     @property
     def step_count(self) -> int:
-        """Steps taken so far."""
+        """Steps taken so far. Readable from any thread, also during a run (then the steps
+        completed so far, published by the run between its steps): a monitor thread can follow
+        a run's progress."""
         return self._core.step_count
 
     # ---- checkpoints ---------------------------------------------------------------------------
@@ -938,19 +984,15 @@ class Simulation:
         TypeError
             ``path`` is not a path, or ``metadata`` is not a JSON-able dict.
         OSError
-            The file cannot be written (the old file, if any, is left as it was).
+            The file cannot be written (the old file, if any, is left as it was); a missing
+            directory gives FileNotFoundError naming ``path`` and the directory.
         """
         from . import checkpoint
 
         target = _checks.path("path", path)
         if metadata is None:
             metadata = self.metadata
-        if not isinstance(metadata, dict):
-            raise TypeError(f"metadata must be a dict, got {metadata!r}")
-        try:
-            json.dumps(metadata, allow_nan=True)
-        except (TypeError, ValueError) as e:
-            raise TypeError(f"metadata must be JSON-able (dicts, lists, strings, numbers): {e}") from None
+        _check_metadata(metadata)
         checkpoint.write_atomically(target, checkpoint.encode(self, metadata))
         return target
 
@@ -978,7 +1020,7 @@ class Simulation:
             threads = _options.check("threads", threads)
         return checkpoint.load(source, threads)
 
-    # ---- state (copies, in id order) ---------------------------------------------------------
+    # ---- state (read-only copies, in id order) -----------------------------------------------
     @property
     def size(self) -> int:
         """Number of spheres."""
@@ -989,8 +1031,10 @@ class Simulation:
 
     @property
     def positions(self) -> np.ndarray:
-        """Centre positions [m], shape (N, 3), row = id. Assigning moves the spheres."""
-        return self._core.positions()
+        """Centre positions [m], shape (N, 3), row = id, a read-only copy. Assigning moves the
+        spheres (``sim.positions = x``); spheres moved after the first run are checked for
+        overlaps when the next run starts, as the first run checks all (``initial_overlap``)."""
+        return _read_only(self._core.positions())
 
     @positions.setter
     def positions(self, value) -> None:
@@ -1000,8 +1044,8 @@ class Simulation:
 
     @property
     def velocities(self) -> np.ndarray:
-        """Velocities [m/s], shape (N, 3). Assignable."""
-        return self._core.velocities()
+        """Velocities [m/s], shape (N, 3), a read-only copy. Assignable."""
+        return _read_only(self._core.velocities())
 
     @velocities.setter
     def velocities(self, value) -> None:
@@ -1011,8 +1055,8 @@ class Simulation:
 
     @property
     def angular_velocities(self) -> np.ndarray:
-        """Angular velocities [rad/s], shape (N, 3). Assignable."""
-        return self._core.angular_velocities()
+        """Angular velocities [rad/s], shape (N, 3), a read-only copy. Assignable."""
+        return _read_only(self._core.angular_velocities())
 
     @angular_velocities.setter
     def angular_velocities(self, value) -> None:
@@ -1022,13 +1066,13 @@ class Simulation:
 
     @property
     def radii(self) -> np.ndarray:
-        """Radii [m], shape (N,)."""
-        return self._core.radii()
+        """Radii [m], shape (N,), a read-only copy."""
+        return _read_only(self._core.radii())
 
     @property
     def masses(self) -> np.ndarray:
-        """Masses [kg], shape (N,)."""
-        return self._core.masses()
+        """Masses [kg], shape (N,), a read-only copy."""
+        return _read_only(self._core.masses())
 
     @property
     def materials(self) -> list:
@@ -1038,18 +1082,20 @@ class Simulation:
 
     @property
     def material_ids(self) -> np.ndarray:
-        """Each sphere's material as an index into :attr:`materials`, shape (N,)."""
-        return np.asarray(self._core.materials(), dtype=np.int64)
+        """Each sphere's material as an index into :attr:`materials`, shape (N,), a read-only
+        copy."""
+        return _read_only(np.array(self._core.materials(), dtype=np.int64))
 
     @property
     def forces(self) -> np.ndarray:
-        """Total force of the last step (contacts + gravity) [N], shape (N, 3)."""
-        return self._core.forces()
+        """Total force of the last step (contacts + gravity) [N], shape (N, 3), a read-only
+        copy."""
+        return _read_only(self._core.forces())
 
     @property
     def torques(self) -> np.ndarray:
-        """Total torque of the last step [N m], shape (N, 3)."""
-        return self._core.torques()
+        """Total torque of the last step [N m], shape (N, 3), a read-only copy."""
+        return _read_only(self._core.torques())
 
     def contacts(self) -> dict:
         """The contacts of the last force evaluation (the start of the last step).
@@ -1157,11 +1203,46 @@ class Simulation:
         Capacities, not the process's resident memory (benchmarks/throughput.py reports both)."""
         return self._core.memory_bytes()
 
+    def __reduce__(self):
+        """Pickling, ``copy.copy`` and ``copy.deepcopy``: through the checkpoint format (see the
+        class's Copies section); refused while the Simulation runs."""
+        from . import checkpoint
+
+        _check_metadata(self.metadata, "a copy or pickle of a Simulation carries its metadata")
+        return _from_checkpoint_bytes, (checkpoint.encode(self, self.metadata), tuple(self._materials))
+
     def __repr__(self) -> str:
         if self._in_run:  # its state is being written by the run
             return "tsubu.Simulation(running)"
         return (f"tsubu.Simulation({self.size} spheres, {self._core.plane_count} walls, "
                 f"t = {self.time:.6g} s, step {self.step_count})")
+
+
+def _read_only(array: np.ndarray) -> np.ndarray:
+    """``array`` (a new copy of the engine's state) marked read-only: writing into it raises
+    instead of changing a copy nobody sees."""
+    array.flags.writeable = False
+    return array
+
+
+def _check_metadata(metadata, why: str = "") -> None:
+    """TypeError unless ``metadata`` is a JSON-able dict (what checkpoints can hold)."""
+    where = f" ({why})" if why else ""
+    if not isinstance(metadata, dict):
+        raise TypeError(f"metadata must be a dict{where}, got {metadata!r}")
+    try:
+        json.dumps(metadata, allow_nan=True)
+    except (TypeError, ValueError) as e:
+        raise TypeError(f"metadata must be JSON-able (dicts, lists, strings, numbers){where}: "
+                        f"{e}") from None
+
+
+def _from_checkpoint_bytes(data: bytes, materials: tuple) -> "Simulation":
+    """The Simulation a pickle or copy holds: its checkpoint's bytes, with ``materials`` (the
+    original's Material objects, or their copies) in place of those the checkpoint describes."""
+    from . import checkpoint
+
+    return checkpoint.decode(data, materials)
 
 
 # Far more than any machine's cores: OpenMP would try to start every thread asked for (the

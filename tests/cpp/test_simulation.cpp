@@ -1,8 +1,10 @@
 // Tests of the Simulation: the contact-history map across neighbour rebuilds, determinism,
-// a closed-form collision, and errors as exceptions.
+// a closed-form collision, errors as exceptions, and the overlap check of changes made after
+// the first run.
 #include <algorithm>
 #include <cmath>
 #include <random>
+#include <sstream>
 #include <vector>
 
 #include "check.hpp"
@@ -179,6 +181,55 @@ void test_sparse_grid_and_list_limit() {
   CHECK(big.neighbor_pairs().empty());
 }
 
+// Overlaps made after the first run (issue 26): a sphere added or moved into another, or a
+// wall added through one, is refused by the next run (InvalidArgument, no step taken), also
+// after a checkpoint round trip; spheres added with check_overlaps = false are not checked; a
+// pair moved together keeps its overlap.
+void test_overlaps_after_the_first_run() {
+  auto two = [] {
+    Simulation s;
+    const int g = s.add_material(glass());
+    s.add_sphere(Vec3(0, 0, kR), kR, g);
+    s.add_sphere(Vec3(4 * kR, 0, kR), kR, g);
+    s.add_plane(Vec3::Zero(), Vec3(0, 0, 1), g);
+    s.options().dt = 1e-6;
+    s.run(10);
+    return s;
+  };
+  Simulation s = two();
+  s.add_sphere(Vec3(-1.8 * kR, 0, kR), kR, 0);  // 0.2 r into sphere 0
+  std::stringstream saved;
+  s.save(saved);
+  CHECK_THROWS(s.run(1), InvalidArgument);
+  CHECK(s.step_count() == 10);
+  Simulation loaded = Simulation::load(saved);
+  CHECK_THROWS(loaded.run(1), InvalidArgument);
+  std::vector<double> x(9);
+  s.get_positions(x.data());
+  x[6] = -3 * kR;  // moved clear
+  s.set_positions(x.data());
+  CHECK(s.run(1) == 1);
+  x[3] = 1.8 * kR;  // sphere 1 moved 0.2 r into sphere 0
+  s.set_positions(x.data());
+  CHECK_THROWS(s.run(1), InvalidArgument);
+  for (double dx : {0.0, 1.0}) {  // back where it was, or everything moved 1 m: accepted
+    x[3] = 4 * kR;
+    s.set_positions(x.data());
+    for (int k = 0; k < 3; ++k) x[3 * k] += dx;
+    s.set_positions(x.data());
+    CHECK(s.run(1) == 1);
+    s.get_positions(x.data());
+  }
+  Simulation w = two();
+  w.add_plane(Vec3(4.9 * kR, 0, 0), Vec3(-1, 0, 0), 0);  // 0.1 r into sphere 1
+  CHECK_THROWS(w.run(1), InvalidArgument);
+  Simulation u = two();
+  const double p[3] = {-1.8 * kR, 0, kR}, r = kR;
+  const int m = 0;
+  u.add_spheres(1, p, &r, &m, nullptr, nullptr, /*check_overlaps=*/false);
+  CHECK(u.run(1) == 1);
+}
+
 }  // namespace
 
 int main() {
@@ -188,5 +239,6 @@ int main() {
   test_head_on_restitution();
   test_errors();
   test_sparse_grid_and_list_limit();
+  test_overlaps_after_the_first_run();
   return tsubu_test::finish("test_simulation");
 }

@@ -114,12 +114,18 @@ void test_stop_then_continue_is_bit_identical(const Snapshot& whole, int threads
   }
 }
 
-// request_stop() from another thread while the run is in progress.
+// request_stop() from another thread while the run is in progress, which that thread watches
+// through step_count() and time() (readable during a run: those of a completed step).
 void test_request_stop_from_another_thread(const Snapshot& whole) {
   Simulation s = lattice(2);
-  std::thread stopper([&s] {
+  std::vector<std::pair<long, double>> seen;
+  std::thread stopper([&s, &seen] {
     while (!s.running()) std::this_thread::yield();
-    std::this_thread::sleep_for(std::chrono::milliseconds(30));
+    const auto until = std::chrono::steady_clock::now() + std::chrono::seconds(20);
+    while ((seen.empty() || seen.back().first < 2) && std::chrono::steady_clock::now() < until) {
+      seen.emplace_back(s.step_count(), s.time());
+      std::this_thread::sleep_for(std::chrono::milliseconds(1));
+    }
     s.request_stop();
   });
   const long taken = s.run(100 * kSteps);
@@ -127,6 +133,9 @@ void test_request_stop_from_another_thread(const Snapshot& whole) {
   CHECK(s.stopped());
   CHECK(taken < 100 * kSteps);
   CHECK(s.step_count() == taken);
+  CHECK(!seen.empty() && seen.back().first >= 2 && seen.back().first <= taken);
+  for (std::size_t k = 1; k < seen.size(); ++k)
+    CHECK(seen[k].first >= seen[k - 1].first && seen[k].second >= seen[k - 1].second);
   if (taken <= kSteps) {
     s.run(kSteps - taken);
     CHECK(identical(snapshot(s), whole));

@@ -70,9 +70,14 @@ class Simulation : private detail::RunHooks {
 
   // Adds n spheres (positions, velocities, angular velocities: 3n values; radii, materials: n).
   // velocities / angular_velocities may be null (zero). Returns the id of the first.
+  // Overlaps are checked when a run starts: at the first run every sphere's, later those of the
+  // spheres added or moved (set_positions) and of the walls added since the last run (see
+  // run()). check_overlaps = false leaves these spheres out of that check: for a caller that
+  // has placed them clear of the others itself (tsubu's inserters, which add spheres during
+  // runs).
   Id add_spheres(std::size_t n, const double* positions, const double* radii,
                  const int* materials, const double* velocities = nullptr,
-                 const double* angular_velocities = nullptr);
+                 const double* angular_velocities = nullptr, bool check_overlaps = true);
   // Capacity for `count` spheres in all, so that adding them in batches does not regrow (and
   // fragment) the particle arrays.
   void reserve(std::size_t count);
@@ -141,8 +146,15 @@ class Simulation : private detail::RunHooks {
   // and calls audit_run_end after the last, so that the audit's cost (a pass over the spheres
   // and the near entries) is paid once. A step that moved a sphere further than max_move()
   // stops the run before the next step moves anything (InstabilityError, docs/physics.md).
-  // A Simulation is used by one thread at a time, but for request_stop() and running(): a run
-  // started while another thread's run of it is in progress throws std::logic_error.
+  // A Simulation is used by one thread at a time, but for request_stop(), running(),
+  // step_count() and time(): a run started while another thread's run of it is in progress
+  // throws std::logic_error.
+  // Before its first step a run refuses (InvalidArgument, "initial overlap: ...") overlaps
+  // beyond options().initial_overlap of the smaller radius: at the first run between any
+  // spheres and walls; at a later run those that involve a sphere added or moved, or a wall
+  // added, since the last run, unless the change did not deepen them (a pack moved as a whole
+  // keeps its contacts). A refused run takes no step, and is refused again until the overlap is
+  // gone (or initial_overlap raised).
   long run(long steps, const std::function<bool()>& should_stop = {}, double poll_seconds = 0.02,
            bool audit = true);
   // The energy audit now, as a run does (check_energy): InstabilityError if the balance grew
@@ -158,9 +170,9 @@ class Simulation : private detail::RunHooks {
   void audit_run_end(long start);
   static constexpr long kRunEndAudit = 100;
   // What run() does before its first step, now: check the options and dt, mix the pair table,
-  // select the law, build the neighbour lists if they are due, check the first run's overlaps
-  // and the walls' speeds. Raises what a run would raise before stepping; a run after it starts
-  // the same (the Python layer calls it to look at the lists before a long run).
+  // select the law, build the neighbour lists if they are due, check the overlaps and the
+  // walls' speeds. Raises what a run would raise before stepping; a run after it starts the
+  // same (the Python layer calls it to look at the lists before a long run).
   void prepare_run();
   // Asks the run in progress to return after its current step (see run()). Thread-safe and
   // async-signal-safe (one lock-free atomic store): callable from another thread or a signal
@@ -172,8 +184,11 @@ class Simulation : private detail::RunHooks {
   bool stopped() const { return stopped_; }
   // Whether a run is in progress (in any thread).
   bool running() const noexcept { return running_.on.load(std::memory_order_acquire); }
-  long step_count() const { return run_.step; }
-  double time() const { return run_.time; }
+  // Steps taken and simulated time [s]. Readable from any thread, also while another thread
+  // runs: during a run they are those of a step completed (the loop publishes them between
+  // steps, with relaxed atomic stores).
+  long step_count() const noexcept { return shown_.step.load(std::memory_order_relaxed); }
+  double time() const noexcept { return shown_.time.load(std::memory_order_relaxed); }
   std::string law_name() const;  // the compiled specialisation the next run uses
   // Threads a run of this scene uses: 1 below options().parallel_min spheres (or without
   // OpenMP), else options().threads or OpenMP's default.
@@ -242,6 +257,12 @@ class Simulation : private detail::RunHooks {
     bool energy_ref_valid = false;
     long energy_ref_step = 0;
     Vec3 energy_ref_gravity = Vec3::Zero();
+    // What the next run checks for overlaps (see run()): the spheres added or moved since the
+    // last run, by id, with their centres then (3 each; NaN for a sphere added since), and the
+    // number of walls added since (the last ones). Saved only when not empty.
+    std::vector<Id> unchecked;
+    std::vector<double> unchecked_from;
+    int unchecked_walls = 0;
     void save(archive::Writer& w) const;
     void restore(archive::Reader& r);
   };
@@ -287,6 +308,7 @@ class Simulation : private detail::RunHooks {
   // Whether the run must end before its next step: a stop was requested, or the poll (called
   // when its interval has passed by `now`) asked for one, which is then kept as a request.
   bool stop_due(std::chrono::steady_clock::time_point now) override {
+    publish();  // (called between every two steps)
     if (poll_ && now >= next_poll_) {
       next_poll_ = now + poll_every_;
       if ((*poll_)()) request_stop();
@@ -315,7 +337,13 @@ class Simulation : private detail::RunHooks {
   // The compiled law of the scene now, and the entry shapes it needs.
   void select_law();
   void mix_pairs();
-  void check_initial_overlaps() const;
+  // Refuses (InvalidArgument) overlaps beyond options().initial_overlap: all of them (at the
+  // first run), or those the changes since the last run made (unchecked_, walls_checked_).
+  // Needs the lists of the current positions.
+  void check_overlaps(bool all) const;
+  // Records that the sphere at index i is about to move (or was just added: added = true), for
+  // the overlap check of the next run.
+  void mark_unchecked(Index i, bool added);
   // The compiled law this scene's pairs and options select (contact/selection.hpp).
   LawKey law_key() const;
   // Raises InstabilityError if the energy balance (mechanical + dissipated, energy_now()) grew
@@ -366,7 +394,35 @@ class Simulation : private detail::RunHooks {
 
   // Run state.
   RunCounters run_;
+  // run_.step and run_.time as published for other threads (step_count(), time()): between the
+  // steps of a run, when it returns, and when the run state is set.
+  struct Shown {
+    std::atomic<long> step{0};
+    std::atomic<double> time{0};
+    Shown() = default;
+    Shown(const Shown& o) { *this = o; }
+    Shown& operator=(const Shown& o) {
+      step.store(o.step.load(std::memory_order_relaxed), std::memory_order_relaxed);
+      time.store(o.time.load(std::memory_order_relaxed), std::memory_order_relaxed);
+      return *this;
+    }
+  };
+  static_assert(std::atomic<long>::is_always_lock_free && std::atomic<double>::is_always_lock_free,
+                "step_count() and time() are read while a run writes them");
+  Shown shown_;
+  void publish() noexcept {
+    shown_.step.store(run_.step, std::memory_order_relaxed);
+    shown_.time.store(run_.time, std::memory_order_relaxed);
+  }
   bool ran_ = false;
+  // The changes the next run checks for overlaps (check_overlaps), made after the first run:
+  // the spheres added or moved, by id, with their centres at the last check (3 each, NaN for a
+  // sphere added since), whether an id is listed (by id; empty while none is), and the number
+  // of walls at the last check.
+  std::vector<Id> unchecked_;
+  std::vector<double> unchecked_from_;
+  std::vector<char> unchecked_listed_;
+  int walls_checked_ = 0;
   const CompiledLaw* law_ = nullptr;  // the law of the last run (prepare_run)
   // The law of the last run, or, before any, the one the scene selects now.
   const CompiledLaw& law() const { return law_ ? *law_ : find_law(law_key()); }

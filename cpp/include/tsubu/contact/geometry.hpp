@@ -45,7 +45,8 @@ struct ContactGeometry {
   double vn;       // (v_i - v_j) . n, negative while approaching (1.8)
   Vec3 vt;         // tangential relative velocity of the contact points (1.12, lever c not r)
   double m_eff;    // reduced mass m_i m_j / (m_i + m_j); wall: m_i
-  double entry[2]; // the law's entry terms (ContactLaw::entry_terms; the loop keeps them per entry)
+  double entry[2] = {0, 0};  // the law's entry terms (ContactLaw::entry_terms; the loop keeps them per entry)
+  Vec3 prev_n_cross_ft = Vec3::Zero();  // last step's n x F_t (zero for a new contact): the energy booking's
   // Only filled for rolling friction:
   Vec3 w_rel;      // omega_i - omega_j (wall: omega_i - omega_wall)
   double ri, rj;   // radii (1.20); wall: rj = 0
@@ -59,7 +60,7 @@ struct ContactResult {
   Vec3 n_cross_ft = Vec3::Zero();// n x F_t
   Vec3 roll = Vec3::Zero();      // rolling-resistance vector R, M_ij = r_i R (1.20)
   double fn = 0;                 // signed normal force on i along n (positive: repulsive)
-  double power = 0;              // rate of dissipation in this contact, W (>= 0)
+  double power = 0;              // rate of dissipation in this contact over the step, W
 };
 
 }  // namespace tsubu

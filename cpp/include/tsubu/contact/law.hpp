@@ -77,9 +77,10 @@ struct ContactLaw {
   }
 
   // The normal and tangential laws of one contact in lane form (plain doubles, no branches): a
-  // block of contacts runs it in a loop the compiler vectorises. Sets F (on i), n x F_t and the
-  // dissipated power; updates the tangential history xi (and aux, its fourth value where the law
-  // keeps one). q: the packed parameters; e: the entry's terms. Returns the signed f_n.
+  // block of contacts runs it in a loop the compiler vectorises. Sets F (on i), n x F_t (which
+  // holds last step's on entry: zero for a new contact) and the dissipated power; updates the
+  // tangential history xi (and aux, its fourth value where the law keeps one). q: the packed
+  // parameters; e: the entry's terms. Returns the signed f_n.
   TSUBU_INLINE static double lane(L3 n, L3 vt, double delta, double vn, const double* e,
                                   const double* q, double dt, L3& xi, double& aux, L3& force,
                                   L3& n_cross_ft, double& power) {
@@ -94,8 +95,10 @@ struct ContactLaw {
     if constexpr (Tangential::enabled) {
       const double* t = q + kNormalParams;  // the tangential law's packed parameters
       Tangential::follow(t, s, dt, xi, aux, power);
+      // last step's F_t, turned into this tangent plane, on this step's v_t: (n' x F) x n . v_t
+      const double prev_work = dot(n_cross_ft, cross(n, vt));
       const L3 ft = Tangential::lane(n, vt, Tangential::stiffness(t, s), Tangential::damping(t, eta_n),
-                                     Tangential::cap(t, fn), dt, xi, power);
+                                     Tangential::cap(t, fn), dt, prev_work, xi, power);
       force = force + ft;
       n_cross_ft = cross(n, ft);
     } else {
@@ -112,7 +115,7 @@ struct ContactLaw {
                                     History& h, ContactResult& out) {
     double q[kLaneParams > 0 ? kLaneParams : 1];
     pack(p, q);
-    L3 xi{0, 0, 0}, force, nxft{0, 0, 0};
+    L3 xi{0, 0, 0}, force, nxft = lanes(g.prev_n_cross_ft);
     double aux = 0;
     if constexpr (has_history) xi = {h.xi[0], h.xi[1], h.xi[2]};
     if constexpr (history_width > 3) aux = h.xi[3];

@@ -73,13 +73,24 @@ namespace detail {
 // this step's increment; `frozen` the displacement without it. When the trial force exceeds
 // mu |f_n| the contact slips: the force is mu |f_n| along -t, t = v_t/|v_t| (|f_n|, not
 // the |f_t| of the notes' (1.17), docs/physics.md), and the displacement stays frozen (1.18). Returns F_t; sets xi.
+//
+// The power booked as dissipated is what the contact took over the step's displacement v_t dt
+// less what its spring stored: -(F_prev + F_t)/2 . v_t - dU/dt. The force is averaged over the
+// steps before and after the displacement (`prev_work`: F_prev . v_t, last step's F_t turned
+// into this tangent plane), which is the work symplectic Euler really does (the kick's midpoint
+// rule); F_t . v_t
+// alone would book mu |f_n| |v_t| whenever a slipping contact jitters, though a force that
+// follows -v_t flips with v_t and does no net work (docs/physics.md, "Energy balance").
 template <bool kTruncate = false>
 TSUBU_INLINE L3 coulomb(L3 vt, double kt, double eta_t, double cap, double dt, L3 trial, L3 frozen,
-                        L3& xi, double& power) {
+                        double prev_work, L3& xi, double& power) {
   const L3 ft = mul_add(-kt, trial, -(eta_t * vt));  // (1.11)
   const double ft2 = dot(ft, ft);
   const bool slip = ft2 > cap * cap;
-  const double stick_power = eta_t * dot(vt, vt);
+  // Sticking, U goes from 1/2 kt |trial - v_t dt|^2 to 1/2 kt |trial|^2; with F_t = -kt trial -
+  // eta_t v_t the rest is the dashpot's eta_t v_t^2 / 2 and what F_prev differs from the spring.
+  const double vt2 = dot(vt, vt);
+  const double stick_power = 0.5 * (eta_t * vt2 - kt * (dot(trial, vt) - dt * vt2) - prev_work);
   if constexpr (kTruncate) {
     // The rule of LAMMPS's gran/hooke/history and of the shared reference scene: the trial force is scaled down to
     // the cap in its own direction, and the displacement truncated to match.
@@ -88,7 +99,7 @@ TSUBU_INLINE L3 coulomb(L3 vt, double kt, double eta_t, double cap, double dt, L
     const L3 cut = -(1.0 / kt) * (fs + eta_t * vt);
     // dissipated = work against the slip + the spring energy cut off
     const double slip_power =
-        -dot(fs, vt) + (0.5 * kt * (dot(frozen, frozen) - dot(cut, cut))) * (1.0 / dt);
+        -0.5 * (dot(fs, vt) + prev_work) + (0.5 * kt * (dot(frozen, frozen) - dot(cut, cut))) * (1.0 / dt);
     xi = select(slip, cut, trial);
     power += slip ? slip_power : stick_power;
     return select(slip, fs, ft);
@@ -97,7 +108,8 @@ TSUBU_INLINE L3 coulomb(L3 vt, double kt, double eta_t, double cap, double dt, L
     const double vt_abs = std::sqrt(dot(vt, vt));
     const L3 fs = select(vt_abs > 0, (-cap / vt_abs) * vt, (cap / std::sqrt(ft2)) * ft);
     xi = select(slip, frozen, trial);
-    power += slip ? -dot(fs, vt) : stick_power;
+    // (fs . v_t = -cap |v_t|, also where v_t = 0; frozen: U unchanged)
+    power += slip ? 0.5 * (cap * vt_abs - prev_work) : stick_power;
     return select(slip, fs, ft);
   }
 }
@@ -107,7 +119,9 @@ template <class Law>
 TSUBU_INLINE Vec3 tangential(const ContactGeometry& g, const FrictionParams& p, double eta_t,
                              double fn_abs, double dt, typename Law::History& h, double& power) {
   L3 xi{h.xi[0], h.xi[1], h.xi[2]};
-  const L3 ft = Law::lane(lanes(g.n), lanes(g.vt), p.kt, eta_t, p.friction * fn_abs, dt, xi, power);
+  const double prev_work = dot(lanes(g.prev_n_cross_ft), cross(lanes(g.n), lanes(g.vt)));
+  const L3 ft = Law::lane(lanes(g.n), lanes(g.vt), p.kt, eta_t, p.friction * fn_abs, dt, prev_work,
+                          xi, power);
   h.xi[0] = xi.x;
   h.xi[1] = xi.y;
   h.xi[2] = xi.z;
@@ -122,9 +136,10 @@ template <bool kTruncate>
 struct TangentialRotateRule : TangentialSpring {
   static constexpr const char* name = kTruncate ? "friction(rotate, truncate)" : "friction(rotate)";
 
-  // One contact: normal n, tangential velocity vt, cap mu |f_n|; returns F_t, updates xi.
-  TSUBU_INLINE static L3 lane(L3 n, L3 vt, double kt, double eta_t, double cap, double dt, L3& xi,
-                              double& power) {
+  // One contact: normal n, tangential velocity vt, cap mu |f_n|, last step's F_t . v_t
+  // `prev_work`; returns F_t, updates xi.
+  TSUBU_INLINE static L3 lane(L3 n, L3 vt, double kt, double eta_t, double cap, double dt,
+                              double prev_work, L3& xi, double& power) {
     const L3 old = xi;
     const double along = dot(old, n);
     const L3 flat = old - along * n;
@@ -137,7 +152,7 @@ struct TangentialRotateRule : TangentialSpring {
     const double scale = eps < 1e-5 ? series : (rot2 > 0 ? exact : 1.0);
     const L3 rot = select(along != 0, scale * flat, flat);
     const L3 trial = mul_add(dt, vt, rot);  // (1.13) one step
-    return detail::coulomb<kTruncate>(vt, kt, eta_t, cap, dt, trial, rot, xi, power);
+    return detail::coulomb<kTruncate>(vt, kt, eta_t, cap, dt, trial, rot, prev_work, xi, power);
   }
   TSUBU_INLINE static Vec3 evaluate(const ContactGeometry& g, const FrictionParams& p, double eta_t,
                                     double fn_abs, double dt, History& h, double& power) {
@@ -153,13 +168,13 @@ using TangentialRotateTruncate = TangentialRotateRule<true>;
 struct TangentialLiteral : TangentialSpring {
   static constexpr const char* name = "friction(literal)";
 
-  TSUBU_INLINE static L3 lane(L3, L3 vt, double kt, double eta_t, double cap, double dt, L3& xi,
-                              double& power) {
+  TSUBU_INLINE static L3 lane(L3, L3 vt, double kt, double eta_t, double cap, double dt,
+                              double prev_work, L3& xi, double& power) {
     const L3 old = xi;
     const double vt_abs = std::sqrt(dot(vt, vt));
     const L3 trial =
         select(vt_abs > 0, ((std::sqrt(dot(old, old)) + vt_abs * dt) / vt_abs) * vt, old);  // (1.14), (1.16)
-    return detail::coulomb(vt, kt, eta_t, cap, dt, trial, old, xi, power);
+    return detail::coulomb(vt, kt, eta_t, cap, dt, trial, old, prev_work, xi, power);
   }
   TSUBU_INLINE static Vec3 evaluate(const ContactGeometry& g, const FrictionParams& p, double eta_t,
                                     double fn_abs, double dt, History& h, double& power) {

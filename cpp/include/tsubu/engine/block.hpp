@@ -85,7 +85,7 @@ struct Blocked {
     // b.inside may alias anything, and gcc would reload each of them after it.
     const Index *const own = c.own, *const par = c.par;
     const double *const r = c.r, *const v = c.v, *const w = c.w, *const cut2 = c.cut2;
-    const double *const entry = c.entry, *const history = c.xi;
+    const double *const entry = c.entry, *const history = c.xi, *const moment = c.nxft;
     const std::uint8_t* const touch = c.touch;
     const double limit = c.limit;
     double most = excess;
@@ -113,6 +113,10 @@ struct Blocked {
         const double* xi = history + kHistory * q;
         b.xix[a] = xi[0], b.xiy[a] = xi[1], b.xiz[a] = xi[2];
         if constexpr (kHistory > 3) b.xia[a] = xi[3];
+      }
+      if constexpr (F::kTangential) {
+        const double* t = moment + 3 * q;
+        b.tx[a] = t[0], b.ty[a] = t[1], b.tz[a] = t[2];
       }
     }
     excess = most;
@@ -147,7 +151,8 @@ struct Blocked {
       double q[kParams], e[kEntry];
       for (int k = 0; k < kParams; ++k) q[k] = b.param[k][a];
       for (int k = 0; k < kEntry; ++k) e[k] = b.entry[k][a];
-      L3 xi{b.xix[a], b.xiy[a], b.xiz[a]}, f, t{0, 0, 0};
+      // (t: last step's n x F_t in, this step's out; the tangential law's energy booking reads it)
+      L3 xi{b.xix[a], b.xiy[a], b.xiz[a]}, f, t{b.tx[a], b.ty[a], b.tz[a]};
       double aux = kHistory > 3 ? b.xia[kHistory > 3 ? a : 0] : 0.0, power;
       Law::lane(n, vt, b.delta[a], vn, e, q, dt, xi, aux, f, t, power);
       b.xix[a] = xi.x, b.xiy[a] = xi.y, b.xiz[a] = xi.z;
@@ -256,6 +261,10 @@ struct Blocked {
         const double* xi = c.wxi + kHistory * e[a];
         b.xix[a] = xi[0], b.xiy[a] = xi[1], b.xiz[a] = xi[2];
         if constexpr (kHistory > 3) b.xia[a] = xi[3];
+      }
+      if constexpr (F::kTangential) {
+        const double* t = c.wnxft + 3 * e[a];
+        b.tx[a] = t[0], b.ty[a] = t[1], b.tz[a] = t[2];
       }
     }
     const bool bad = evaluate<false>(b, scan, len, c.dt, fmax);  // (the scan is not read)

@@ -176,6 +176,8 @@ struct Contacts {
       g.rj = rj;
       g.spin_mobility = ri * c.inv_i[i] + rj * c.inv_i[j];
     }
+    if constexpr (F::kTangential)  // (tilted: the stored moment is the whole force's, n x F)
+      g.prev_n_cross_ft = tilted ? Vec3(g.n.cross(vec3(c.force, q))) : Vec3(vec3(c.nxft, q));
     ContactResult res = evaluate(g, params, dt, c.xi + Law::history_width * q);
     c.touch[q] = 1;
     c.overlap[q] = overlap;  // geometric: it sets the levers c = r - overlap/2
@@ -184,9 +186,9 @@ struct Contacts {
     // the whole force has a moment about the centres (n x F), which keeps angular momentum exact.
     if constexpr (F::kTangential || F::kRough)
       vec3(c.nxft, q) = tilted ? Vec3(n.cross(res.force)) : res.n_cross_ft;
-    if constexpr (F::kRolling) {
+    if constexpr (F::kRolling) {  // (the torque averaged over the steps around the turn, as F_t)
+      res.power -= 0.5 * (res.roll + vec3(c.roll, q)).dot(ri * vec3(c.w, i) - rj * vec3(c.w, j));
       vec3(c.roll, q) = res.roll;
-      res.power -= res.roll.dot(ri * vec3(c.w, i) - rj * vec3(c.w, j));
     }
     return res.power * dt;
   }
@@ -255,6 +257,7 @@ struct Contacts {
       g.rj = 0;
       g.spin_mobility = ri * c.inv_i[i];
     }
+    if constexpr (F::kTangential) g.prev_n_cross_ft = vec3(c.wnxft, e);
     ContactResult res = evaluate(g, params, dt, c.wxi + Law::history_width * e);
     c.wtouch[e] = 1;
     c.woverlap[e] = delta;
@@ -262,8 +265,8 @@ struct Contacts {
     // The lever runs along the (facet) normal: the wall's surface.
     if constexpr (F::kTangential) vec3(c.wnxft, e) = res.n_cross_ft;
     if constexpr (F::kRolling) {
+      res.power -= 0.5 * ri * (res.roll + vec3(c.wroll, e)).dot(g.w_rel);
       vec3(c.wroll, e) = res.roll;
-      res.power -= ri * res.roll.dot(g.w_rel);
     }
     return res.power * dt;
   }
