@@ -224,9 +224,44 @@ def test_run_then_resume_continues_to_the_end(tmp_path, capsys):
     assert tsubu.Simulation.load(checkpoint).metadata["end_time"] == pytest.approx(0.003, abs=end.dt)  # the new end
     assert main(["resume", str(checkpoint), "--no-progress"]) == 0  # already at the end: nothing to do
     assert abs(tsubu.Simulation.load(checkpoint).time - 0.003) < end.dt
-    assert main(["resume", str(checkpoint), "--until", "0.0025", "--no-progress"]) == 0  # in the past
-    assert abs(tsubu.Simulation.load(checkpoint).time - 0.003) < end.dt
     assert "tsubu resume" in capsys.readouterr().out
+    # (--until before the checkpoint's time is refused: test_resume_until_in_the_past_is_refused)
+
+
+def _scene_run_to_its_checkpoint(tmp_path):
+    path = copy_scene(tmp_path)
+    path.write_text(path.read_text() + "\n[checkpoint]\npath = \"run.tsubu\"\n")
+    assert main(["run", str(path), "--no-progress"]) == 0
+    return tmp_path / "output" / "run.tsubu"
+
+
+def test_a_scene_run_until_a_time_already_past_is_refused(tmp_path, capsys):
+    # resume --until 0.5 on a checkpoint at t = 1 ran 0 steps and exited 0.
+    needs_checkpoints()
+    scene = tsubu.scene.resume(_scene_run_to_its_checkpoint(tmp_path))
+    t = scene.simulation.time
+    with pytest.raises(ValueError, match=rf"until=0\.001 s is before the simulation's time t = "
+                                         rf"{re.escape(repr(t))} s \(step \d+\): a run cannot go back"):
+        scene.run(until=0.001, progress=False)
+    assert scene.simulation.time == t
+    scene.run(until=t - 0.4 * scene.simulation.dt, progress=False)  # within half a step: no step
+    assert scene.simulation.time == t
+
+
+def test_resume_until_in_the_past_is_refused(tmp_path, capsys):
+    needs_checkpoints()
+    checkpoint = _scene_run_to_its_checkpoint(tmp_path)
+    before = checkpoint.read_bytes()
+    t = tsubu.Simulation.load(checkpoint).time
+    # the tsubu under test, wherever it is imported from
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join(
+        [os.path.dirname(os.path.dirname(tsubu.__file__))] + [p for p in [os.environ.get("PYTHONPATH")] if p]))
+    result = subprocess.run([sys.executable, "-m", "tsubu", "resume", str(checkpoint), "--until", "0.001",
+                             "--no-progress"], capture_output=True, text=True, cwd=tmp_path, env=env)
+    assert result.returncode != 0
+    assert re.search(rf"until=0\.001 s is before the simulation's time t = {re.escape(repr(t))} s",
+                     result.stderr), result.stderr
+    assert checkpoint.read_bytes() == before
 
 
 def test_resume_refuses_what_the_library_refuses_in_one_line(tmp_path, capsys):

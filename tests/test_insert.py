@@ -164,6 +164,38 @@ def test_what_does_not_fit_is_carried_over():
     assert inserter.inserted + inserter.pending == 40 and inserter.pending == 40 - sim.size
 
 
+def test_a_rate_the_region_can_never_hold_is_refused_at_the_first_event():
+    # 1e7 spheres/s into a 2 cm box: one step spent 6.9 s trying to place 451,012 of them. Now the
+    # first event refuses, naming the rate, before placing any (a box of 8e-6 m^3 holds at most
+    # 0.7405 x 8e-6 / (4/3 pi (0.4 mm)^3) = 22,097 spheres of the smallest radius).
+    glass = make_material()
+    sim = tsubu.Simulation(gravity=(0, 0, -9.81), dt=1e-5)
+    box = fill.Box((0, 0, 0), (0.02, 0.02, 0.02))
+    inserter = sim.add_inserter(box, rate=1e7, sizes=SIZES, material=glass, seed=1)
+    with pytest.raises(ValueError, match=r"Inserter: \d+ spheres are due at t = 0 s \(0 of them left "
+                                         r"from earlier events\), more than the 22097 that its region.*"
+                                         r"rate=10000000\.0 spheres/s.*Lower the rate"):
+        sim.run(steps=2)
+    assert sim.size == 0 and inserter.inserted == 0 and sim.step_count == 0
+
+
+def test_a_backlog_beyond_what_the_region_holds_is_refused():
+    # No gravity: what is inserted stays in the region, and each event adds 30 to a region of room
+    # for at most 43 (2.5 mm cube, 0.4 mm spheres): the second event finds more due, new and left
+    # over, than the region could ever take.
+    glass = make_material()
+    sim = tsubu.Simulation(gravity=(0, 0, 0))
+    small = fill.Box((0, 0, 0), (2.5e-3, 2.5e-3, 2.5e-3))
+    inserter = sim.add_inserter(small, rate=30_000.0, sizes=SIZES, material=glass, interval=1e-3, seed=3)
+    sim.run(steps=1)
+    assert 0 < inserter.pending < 30
+    with pytest.raises(ValueError, match=rf"Inserter: {inserter.pending + 30} spheres are due at t = "
+                                         rf"0\.001\d* s \({inserter.pending} of them left from earlier "
+                                         r"events\), more than the 43 "):
+        sim.run(time=2e-3)
+    assert inserter.inserted == sim.size
+
+
 def test_state_round_trip_gives_the_same_future():
     sim_a, inserter_a = pour_scene(sizes=fill.LogNormal(0.5e-3, 0.1), interval=2e-3)
     sim_b, inserter_b = pour_scene(sizes=fill.LogNormal(0.5e-3, 0.1), interval=2e-3, attach=False)

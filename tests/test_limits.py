@@ -1,13 +1,17 @@
 """Requests that cannot fit are refused up front (MemoryError or ValueError naming what and why),
-and spheres spread over kilometres run in memory proportional to their number."""
+and spheres spread over kilometres run in memory proportional to their number. Settings that a
+typo makes absurd -- thousands of threads, a skin of kilometres, a wall faster than light, a
+run shorter than a step -- are refused or warned about (tsubu.PerformanceWarning)."""
 
 from __future__ import annotations
+
+import warnings
 
 import numpy as np
 import pytest
 
 import tsubu
-from tsubu import _checks, _core
+from tsubu import _checks, _core, simulation
 
 
 def test_available_memory_is_a_positive_figure():
@@ -133,3 +137,119 @@ def test_absurd_sizes_are_refused_naming_the_argument():
     sim.dt = 1e-300
     with pytest.raises(ValueError, match=r"time=1e\+300 s is inf steps"):
         sim.run(time=1e300)
+
+
+# ---- settings a typo makes absurd ------------------------------------------------------------------
+
+@pytest.fixture
+def two_cores(monkeypatch):
+    """The machine gives the process 2 hardware threads, whatever it really has."""
+    monkeypatch.setattr(simulation, "_hardware_threads", lambda: 2)
+
+
+def test_threads_far_beyond_the_hardware_warn_naming_the_count(two_cores):
+    # 4096 threads on 2 cores ran 2600x slower than 1, with no word.
+    with pytest.warns(tsubu.PerformanceWarning, match=r"threads=4096 is more than 2x the 2 hardware "
+                                                       r"thread\(s\).*os\.cpu_count\(\) = \d+.*at most 2"):
+        sim = tsubu.Simulation(threads=4096)
+    assert sim.threads == 4096  # warned, not changed: the results are the same bits anyway
+    with pytest.warns(tsubu.PerformanceWarning, match="threads=5 "):
+        sim.threads = 5
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        sim.threads = 4  # twice the cores: a few more threads than cores cost little
+        sim.threads = None
+
+
+def test_threads_of_a_loaded_checkpoint_warn_too(two_cores, tmp_path):
+    sim = tsubu.Simulation(threads=1)
+    sim.add_sphere((0, 0, 0), 1e-3, tsubu.Material())
+    sim.save(tmp_path / "a.tsubu")
+    with pytest.warns(tsubu.PerformanceWarning, match="threads=64 "):
+        tsubu.Simulation.load(tmp_path / "a.tsubu", threads=64)
+
+
+def test_the_threads_warning_points_at_the_callers_line(two_cores):
+    with pytest.warns(tsubu.PerformanceWarning) as record:
+        tsubu.Simulation(threads=100)
+    assert record[0].filename == __file__
+
+
+def _scattered(n, skin, seed=0):
+    """n spheres of radius 1 mm scattered in a 1 m cube (a dilute gas: few neighbours at a fitting
+    skin), no gravity."""
+    x = np.random.default_rng(seed).uniform(0, 1, (n, 3))
+    sim = tsubu.Simulation(threads=1, dt=1e-6, skin=skin, gravity=(0, 0, 0))
+    sim.add_spheres(x, 1e-3, tsubu.Material())
+    return sim
+
+
+def test_a_skin_that_fills_the_neighbour_list_warns_before_the_run_steps():
+    # skin = 1e6 m: every pair of 600 spheres is a neighbour (179,700 pairs, 300 per sphere,
+    # where the issue's scene built 4.2 GB the same way); the warning comes before the first
+    # step, with the list's size.
+    sim = _scattered(600, 1e6)
+    with pytest.warns(tsubu.PerformanceWarning,
+                      match=r"skin=1000000\.0 m is 5e\+08 times the largest diameter \(0\.002 m\): the "
+                            r"neighbour list holds 179700 pairs, 300 per sphere.*GiB"):
+        sim.run(steps=1)
+    assert sim.step_count == 1  # a warning, not a refusal
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        with pytest.raises(tsubu.PerformanceWarning):
+            sim.run(steps=5)  # every run() looks again
+    assert sim.step_count == 1  # raised as an error, before stepping
+
+
+def test_a_large_skin_that_keeps_the_list_small_does_not_warn():
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        _scattered(600, 0.05).run(steps=2)  # 5 cm in a dilute gas: a few pairs per sphere
+        _scattered(300, 1e6).run(steps=2)  # every pair, but only 44,850 of them
+        _scattered(600, None).run(steps=2)  # the default skin
+
+
+def test_a_wall_faster_than_light_is_refused_naming_the_velocity():
+    # A wall sliding at 1e150 m/s lost its friction: |F_t|^2 overflowed to inf and the slip force
+    # became 0, silently.
+    sim = tsubu.Simulation()
+    mat = tsubu.Material()
+    with pytest.raises(ValueError, match=r"velocity must be at most the speed of light, 2\.99792e\+08 m/s, "
+                                         r".*got \(1e\+150, 0, 0\) \(1e\+150 m/s\)"):
+        sim.add_plane(material=mat, velocity=(1e150, 0, 0))
+    wall = sim.add_plane(material=mat, velocity=(299_792_458.0, 0, 0))  # light speed itself: accepted
+    with pytest.raises(ValueError, match=r"velocity must be at most the speed of light.*got \(0, 300000000\.0, 0\)"):
+        sim.set_plane_motion(wall, velocity=(0, 3e8, 0))
+    with pytest.raises(ValueError, match="faster than light"):  # the core refuses it too
+        sim._core.set_plane_motion(wall, (0, 3e8, 0), (0, 0, 0))
+    assert sim.plane(wall)["velocity"][0] == 299_792_458.0
+    # A wall restored as it was saved (as an old checkpoint's may be) is checked when a run starts.
+    sim.add_spheres([[0, 0, 1e-3], [0.01, 0, 1e-3]], 1e-3, mat)
+    sim._core.set_plane_state(wall, (0, 0, 0), (0, 0, 1), (1e150, 0, 0), (0, 0, 0), 0)
+    with pytest.raises(ValueError, match=r"wall 0: a wall's velocity of 1e\+150 m/s is faster than light"):
+        sim.run(steps=1)
+
+
+def test_a_wall_turning_faster_than_light_where_the_spheres_are_is_refused_when_a_run_starts():
+    sim = tsubu.Simulation(dt=1e-6)
+    mat = tsubu.Material()
+    sim.add_sphere((2.0, 0, 1e-3), 1e-3, mat)
+    wall = sim.add_plane(material=mat, angular_velocity=(0, 0, 1e9))  # 2e9 m/s at the sphere
+    with pytest.raises(ValueError, match=r"wall 0 turns at 1e\+09 rad/s about a point 2 m from the "
+                                         r"farthest sphere.*2e\+09 m/s there, faster than light"):
+        sim.run(steps=1)
+    assert sim.step_count == 0
+    sim.set_plane_motion(wall, angular_velocity=(0, 0, 100.0))
+    sim.run(steps=1)
+    assert sim.step_count == 1
+
+
+def test_a_run_shorter_than_half_a_step_is_refused_naming_time_and_dt():
+    # run(time=0.4 dt) took 0 steps without a word.
+    sim = tsubu.Simulation(dt=1e-4)
+    sim.add_spheres([[0, 0, 0], [0.01, 0, 0]], 1e-3, tsubu.Material())
+    with pytest.raises(ValueError, match=r"time=4e-05 s is shorter than half a step \(dt = 0\.0001 s\)"):
+        sim.run(time=0.4e-4)
+    sim.run(time=0)  # no step, as asked
+    sim.run(time=0.6e-4)  # rounds to one step
+    assert sim.step_count == 1

@@ -523,6 +523,120 @@ def test_squeezed_fcc_burst_is_caught_by_the_energy_balance():
     assert np.all((x > 0) & (x < side))
 
 
+class EveryStep:
+    """A run hook due at every 7th step that does nothing: the run advances in stretches of 7."""
+
+    def next_step(self, sim):
+        return -(-sim.step_count // 7) * 7 if sim.step_count % 7 else sim.step_count + 7
+
+    def act(self, sim):
+        pass
+
+    def close(self, sim):
+        pass
+
+
+def test_a_burst_in_a_run_shorter_than_the_audit_interval_is_caught_when_the_run_ends():
+    """The fcc burst of the test above, in a run() of 300 steps: the balance is audited when the
+    run ends (it was only at every 1000th step, so the run returned with the energy created).
+    The same run cut into stretches of 7 steps by a hook is audited once, at its end (step 300,
+    not at the first stretch past 100 steps)."""
+    for output in (None, EveryStep()):
+        sim, side = squeezed_lattice("fcc", 0.6)
+        with pytest.raises(tsubu.InstabilityError) as info:
+            sim.run(steps=300, output=output)
+        assert explained(sim, info.value) == "energy"
+        assert info.value.step == sim.step_count == 300
+        created, lost = (float(v) for v in ENERGY_MESSAGE.search(str(info.value)).groups()[1:])
+        assert created > 0.5 * lost
+
+
+def test_one_step_runs_are_audited_every_100_steps():
+    """A loop of run(steps=1) is audited by the runs that reach a multiple of 100 steps (not by
+    every run, which would cost an energy evaluation per step): the burst is caught at step 100."""
+    sim, _ = squeezed_lattice("fcc", 0.6)
+    with pytest.raises(tsubu.InstabilityError) as info:
+        for _ in range(300):
+            sim.run(steps=1)
+    assert explained(sim, info.value) == "energy"
+    assert info.value.step == sim.step_count == 100
+
+
+def test_a_stable_pack_passes_the_audit_of_every_run_end():
+    """f = 0.3 (stable, as in the map): 30 runs of 100 steps, each audited when it ends."""
+    sim, _ = squeezed_lattice("fcc", 0.3)
+    for _ in range(30):
+        sim.run(steps=100)
+    assert sim.step_count == 3000
+
+
+# ---- spheres moving too far in a step ------------------------------------------------------------
+
+def head_on(speed_in_steps: float, dt: float = 1e-6, gap: float = 10.0, kn: float = REF_KN):
+    """Two spheres of radius R, ``gap`` R apart (surface to surface) on the x axis, no gravity, no
+    walls; sphere 0 moves towards sphere 1 by ``speed_in_steps`` R per step."""
+    mat = make_material(restitution=0.5, friction=0.5, kn=kn, kt=2.0 / 7.0 * kn)
+    sim = tsubu.Simulation(gravity=(0.0, 0.0, 0.0), dt=dt, threads=1, allow_unstable_dt=True)
+    sim.add_sphere((0.0, 0.0, 0.0), R, mat, velocity=(speed_in_steps * R / dt, 0.0, 0.0))
+    sim.add_sphere(((2 + gap) * R, 0.0, 0.0), R, mat)
+    return sim
+
+
+def test_a_sphere_that_passes_through_another_in_one_step_is_stopped():
+    """The issue's 10 km/s sphere (at dt = 3.3e-6 s it moves 33 mm a step, 66 radii): it jumps
+    past the other sphere without a step in which they overlap, which the overlap check cannot
+    see. The step after such a step stops the run: InstabilityError naming the sphere, the
+    distance, the speed and the limit (1.5 R for two spheres of radius R at max_overlap 0.5), with
+    the positions of the step before kept (finite, the sphere already past the other)."""
+    sim = head_on(66.0, dt=3.3e-6)
+    with pytest.raises(tsubu.InstabilityError) as info:
+        sim.run(steps=10)
+    err = info.value
+    assert err.particle == 0 and err.step == 2 and sim.step_count == 1
+    message = str(err)
+    assert re.match(r"unstable at step 2 \(t = [^)]*\): sphere 0 moved 0\.033 m in step 1 \(at 10000 m/s\), "
+                    r"more than 0\.00075 m", message), message
+    assert "pass through one another" in message and "dt below" in message
+    assert sim.positions[0, 0] > sim.positions[1, 0]  # it is already past: caught, not prevented
+    assert np.all(np.isfinite(sim.positions))
+
+
+@pytest.mark.parametrize("steps_per_radius", [0.3, 0.74, 1.4, 3.0, 66.0])
+def test_a_head_on_pass_is_always_caught_one_way_or_the_other(steps_per_radius):
+    """Whatever the speed, a sphere driven head on through another stops the run: up to 1.5 R a
+    step (the limit, r_a + r_b - 0.5 r_a) some step lands the pair more than 0.5 R deep and the
+    overlap check names both; beyond it, the step after the long step names the fast sphere.
+    (Springs of 1e-9 N/m: the contact hardly slows the sphere, which would pass through.)"""
+    sim = head_on(steps_per_radius, kn=1e-9)
+    with pytest.raises(tsubu.InstabilityError) as info:
+        sim.run(steps=200)
+    message = str(info.value)
+    if steps_per_radius < 1.5:
+        assert re.search(r"spheres 0 and 1 overlap by", message), message
+    else:
+        assert re.search(r"sphere 0 moved .* more than 0\.00075 m", message), message
+
+
+def test_spheres_that_cannot_meet_another_sphere_are_not_stopped_for_their_speed():
+    """A lone sphere at 10 km/s, or one with only walls around (a plane is a half-space: a sphere
+    cannot cross it unseen), has nothing to pass through: no stop."""
+    mat = make_material(restitution=0.5, friction=0.5)
+    sim = tsubu.Simulation(gravity=(0.0, 0.0, 0.0), dt=3.3e-6, threads=1)
+    sim.add_sphere((0.0, 0.0, 0.0), R, mat, velocity=(1e4, 0.0, 0.0))
+    sim.run(steps=10)
+    assert sim.positions[0, 0] == pytest.approx(10 * 3.3e-6 * 1e4)
+
+
+def test_setting_the_velocities_clears_the_last_step_of_a_fast_sphere():
+    """The check is of the step just taken: after velocities are set, the next run starts clean
+    (the spheres then move slowly)."""
+    sim = head_on(66.0, dt=3.3e-6, gap=200.0)
+    sim.run(steps=1)  # moved 66 R: the next step would stop
+    sim.velocities = np.zeros((2, 3))
+    sim.run(steps=5)
+    assert sim.step_count == 6
+
+
 # ---- the map: impacts on a wall ----------------------------------------------------------------
 
 def impact(speed: float, max_overlap: float = 0.5) -> tsubu.Simulation:

@@ -29,7 +29,9 @@ constexpr double kSignalPollSeconds = 0.02;
 // Runs with the GIL released. On the main thread, every 20 ms of wall time the run takes the
 // GIL back to run pending signal handlers: one that raises (SIGINT's KeyboardInterrupt) stops
 // the run after its current step, and the exception is raised here once the run has returned.
-long run_checking_signals(Sim& s, long steps) {
+// `audit`: check the energy balance when the run ends (Simulation::run); the Python layer, which
+// cuts a run into stretches between its hooks, passes false and audits once at the end.
+long run_checking_signals(Sim& s, long steps, bool audit) {
   std::optional<py::error_already_set> raised;
   const std::function<bool()> check_signals = [&raised] {
     py::gil_scoped_acquire gil;
@@ -41,7 +43,8 @@ long run_checking_signals(Sim& s, long steps) {
   long taken;
   {
     py::gil_scoped_release release;
-    taken = on_main ? s.run(steps, check_signals, kSignalPollSeconds) : s.run(steps);
+    taken = on_main ? s.run(steps, check_signals, kSignalPollSeconds, audit)
+                    : s.run(steps, {}, kSignalPollSeconds, audit);
   }
   if (raised) throw *raised;
   return taken;
@@ -123,7 +126,10 @@ void register_simulation(py::class_<Sim>& cls) {
       .def("rayleigh_time", &Sim::rayleigh_time)
       .def("characteristic_speed", &Sim::characteristic_speed)
       .def("time_step", &Sim::time_step)
-      .def("run", &run_checking_signals, "steps"_a)
+      .def("run", &run_checking_signals, "steps"_a, "audit"_a = true)
+      .def("audit_run_end", &Sim::audit_run_end, "start"_a)
+      .def("prepare_run", &Sim::prepare_run)
+      .def_property_readonly("neighbor_pair_count", &Sim::neighbor_pair_count)
       .def("request_stop", &Sim::request_stop)
       .def_property_readonly("stopped", &Sim::stopped)
       .def_property_readonly("running", &Sim::running)

@@ -43,6 +43,7 @@ void Simulation::set_run_state(const RunState& s) {
   require(s.step >= 0 && std::isfinite(s.time), "step and time must be >= 0 and finite");
   run_.step = s.step;
   run_.time = s.time;
+  run_.last_move = 0;
   ran_ = s.ran;
   speed_fixed_ = s.speed_fixed;
   energy_ref_ = s.energy_ref;

@@ -150,4 +150,29 @@ void Simulation::report_nonfinite_velocity() const {
                              run_.step + 1, particles_.arrays().id[k]);
   throw InstabilityError("unstable: non-finite velocity", run_.step + 1, -1);
 }
+void Simulation::report_fast(double max_move) const {
+  // Error path only: name the fastest sphere (lowest id wins ties); the velocities are those the
+  // last step moved the spheres with.
+  const ParticleStore& ps = particles_.arrays();
+  double fastest = -1;
+  std::size_t who = 0;
+  for (std::size_t k = 0; k < particles_.size(); ++k) {
+    const double v2 = vec3(ps.v.data(), k).squaredNorm();
+    if (v2 > fastest || (v2 == fastest && ps.id[k] < ps.id[who])) fastest = v2, who = k;
+  }
+  const double speed = std::sqrt(fastest);
+  throw InstabilityError(
+      "unstable at step " + std::to_string(run_.step + 1) + " (t = " + fmt(run_.time + run_.dt) +
+          " s): sphere " + std::to_string(ps.id[who]) + " moved " + fmt(run_.last_move) +
+          " m in step " + std::to_string(run_.step) + " (at " + fmt(speed) + " m/s), more than " +
+          fmt(max_move) +
+          " m, the most a step may move a sphere for the overlap check to see the scene's two "
+          "smallest spheres meet head on (r_a + r_b - max_overlap r_a): in steps that long "
+          "spheres can pass through one another unseen. Use a dt below " + fmt(max_move / speed) +
+          " s for this speed, or find what drove the sphere this fast (a dt above the stability "
+          "bound, a velocity set by mistake). The state before step " + std::to_string(run_.step + 1) +
+          " is kept.",
+      run_.step + 1, ps.id[who]);
+}
+
 }  // namespace tsubu

@@ -19,8 +19,7 @@ using detail::require;
 
 
 Energy Simulation::energy_now() const {
-  Energy e = energy();
-  e.elastic = 0;
+  Energy e = sphere_energy();  // the elastic part follows, at the current positions
   if (lists_.near_offset.size() != particles_.size() + 1) return e;
   const CompiledLaw& law = this->law();
   const double *x = particles_.arrays().x.data(), *v = particles_.arrays().v.data(), *w = particles_.arrays().w.data();
@@ -136,7 +135,7 @@ void Simulation::get_torques(double* out) const {
   });
 }
 
-Energy Simulation::energy() const {
+Energy Simulation::sphere_energy() const {
   Energy e;
   // Serial sums in id order: the same digits whatever the thread count.
   const ParticleStore& ps = particles_.arrays();
@@ -147,6 +146,11 @@ Energy Simulation::energy() const {
     e.gravitational -= m * opt_.gravity.dot(domain_.unwrapped(vec3(ps.x.data(), k), k));
     e.dissipated += ps.dissipated[k];
   });
+  return e;
+}
+
+Energy Simulation::energy() const {
+  Energy e = sphere_energy();
   if (!ran_) return e;
   const CompiledLaw& law = this->law();
   for (const ContactInfo& c : contacts()) {

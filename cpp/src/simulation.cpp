@@ -102,6 +102,17 @@ void Simulation::mix_pairs() {
 
 // ---- particles and walls ----------------------------------------------------------------------
 
+namespace {
+
+std::string wall_too_fast(double speed) {
+  return "a wall's velocity of " + fmt(speed) + " m/s is faster than light (" +
+         fmt(Simulation::kMaxWallSpeed) +
+         " m/s): no wall of a Newtonian scene moves so fast, and far beyond it the contact forces "
+         "overflow doubles; check the units of the velocity";
+}
+
+}  // namespace
+
 Id Simulation::add_spheres(std::size_t n, const double* positions, const double* radii,
                            const int* materials, const double* velocities,
                            const double* angular_velocities, bool check_overlaps) {
@@ -125,6 +136,7 @@ Id Simulation::add_spheres(std::size_t n, const double* positions, const double*
     for (std::size_t k = 0; k < n; ++k) mark_unchecked(particles_.index(first + static_cast<Id>(k)), true);
   lists_.valid = false;
   energy_ref_valid_ = false;
+  run_.last_move = 0;
   speed_fixed_ = 0;  // taken again at the next run
   return first;
 }
@@ -171,6 +183,7 @@ void Simulation::remove_spheres(std::size_t count, const Id* ids) {
   lists_.rebuilds = rebuilds;
   lists_.refreshes = refreshes;
   energy_ref_valid_ = false;
+  run_.last_move = 0;
   if (carry) set_contact_state(pairs, walls);
 }
 
@@ -186,6 +199,7 @@ int Simulation::add_plane(const Vec3& point, const Vec3& normal, int material_in
   require(point.allFinite(), "plane point is not finite");
   require(normal.allFinite() && normal.norm() > 0, "plane normal must be a non-zero finite vector");
   require(velocity.allFinite() && angular_velocity.allFinite(), "plane motion is not finite");
+  require(velocity.norm() <= kMaxWallSpeed, [&] { return wall_too_fast(velocity.norm()); });
   material(material_index);
   Plane p;
   p.point = point;
@@ -202,6 +216,7 @@ void Simulation::set_plane_motion(int wall, const Vec3& velocity, const Vec3& an
   energy_ref_valid_ = false;
   require(wall >= 0 && wall < plane_count(), "no wall " + std::to_string(wall));
   require(velocity.allFinite() && angular_velocity.allFinite(), "plane motion is not finite");
+  require(velocity.norm() <= kMaxWallSpeed, [&] { return wall_too_fast(velocity.norm()); });
   walls_.set_motion(wall, velocity, angular_velocity);
   lists_.valid = false;  // the rebuild criterion now accounts for this wall's motion
 }
@@ -246,8 +261,10 @@ void Simulation::prepare_run() {
              " m: give a skin above " + fmt(10 * sep) + " m";
     });
   }
+  check_wall_speeds();
   if (!lists_.valid) lists_.rebuild(list_context(), skin(), true);
   contacts_.size(lists_.near_partner.size(), lists_.wall_index.size());
+  max_move_ = max_move();
   lists_.cache_terms(list_context());  // the pair table may have changed since the last run
   if (!ran_ || !unchecked_.empty() || walls_checked_ < plane_count()) check_overlaps(!ran_);
   ran_ = true;
@@ -277,7 +294,8 @@ void Simulation::select_law() {
     if (particles_.arrays().material[k] != sphere_material_) sphere_material_ = -1;
 }
 
-long Simulation::run(long steps, const std::function<bool()>& should_stop, double poll_seconds) {
+long Simulation::run(long steps, const std::function<bool()>& should_stop, double poll_seconds,
+                     bool audit) {
   require(steps >= 0, "steps must be >= 0, got " + std::to_string(steps));
   if (running_.on.exchange(true, std::memory_order_acquire))
     throw std::logic_error("tsubu: Simulation::run: the Simulation is running in another thread");
@@ -311,6 +329,7 @@ long Simulation::run(long steps, const std::function<bool()>& should_stop, doubl
       detail::World w = world();
       law_->step(w, steps);
     }
+    if (audit) audit_run_end(start);
   }
   finish.failed = false;
   stopped_ = run_.step - start < steps;
@@ -321,8 +340,8 @@ long Simulation::run(long steps, const std::function<bool()>& should_stop, doubl
 // ---- the loop's parts and hooks -------------------------------------------------------------
 
 detail::World Simulation::world() {
-  return {particles_, walls_,  lists_, contacts_, domain_,          pairs_,
-          opt_,       run_,    *this,  sphere_material_, threads_used()};
+  return {particles_, walls_, lists_, contacts_,        domain_,        pairs_,
+          opt_,       run_,   *this,  sphere_material_, threads_used(), max_move_};
 }
 
 NeighborList::Context Simulation::list_context() {
@@ -348,6 +367,56 @@ void Simulation::start_audit(bool walls_move) {
   }
 }
 
+void Simulation::audit_energy() {
+  if (law_ == nullptr || !energy_ref_valid_ || walls_.moving() || energy_ref_gravity_ != opt_.gravity ||
+      !lists_.built(particles_.size()) || run_.step == energy_ref_step_)
+    return;
+  audit();
+}
+
+void Simulation::audit_run_end(long start) {
+  if (run_.step / kRunEndAudit > start / kRunEndAudit && run_.step % detail::kEnergyCheck != 0)
+    audit_energy();
+}
+
+double Simulation::max_move() const {
+  // The two smallest radii a <= b: of all pairs, theirs is the narrowest stretch of a head-on
+  // approach over which the overlap exceeds max_overlap (m) x the smaller radius,
+  // 2 (a + b - m a). Two spheres meeting head on close by at most twice the largest step: if
+  // that step is at most a + b - m a, some step lands them in that stretch and the overlap
+  // check sees them; a longer one can carry them through one another unseen. (A wall is a
+  // half-space: a sphere cannot pass it unseen.)
+  double a = std::numeric_limits<double>::infinity(), b = a;
+  for (double r : particles_.arrays().radius) {
+    if (r < a) b = a, a = r;
+    else if (r < b) b = r;
+  }
+  return a + b - std::min(opt_.max_overlap, 1.0) * a;  // infinite with fewer than two spheres
+}
+
+void Simulation::check_wall_speeds() const {
+  const ParticleStore& ps = particles_.arrays();
+  for (int k = 0; k < walls_.count(); ++k) {
+    const Plane& p = walls_.plane(k);
+    // (A translation was checked when it was set; a checkpoint's wall is restored as it was.)
+    require(p.velocity.norm() <= kMaxWallSpeed, [&] {
+      return "wall " + std::to_string(k) + ": " + wall_too_fast(p.velocity.norm());
+    });
+    const double spin = p.angular_velocity.norm();
+    if (spin == 0) continue;
+    double reach = 0;  // the farthest sphere from the wall's centre of rotation
+    for (std::size_t i = 0; i < particles_.size(); ++i)
+      reach = std::max(reach, (vec3(ps.x.data(), i) - p.point).norm());
+    const double speed = p.velocity.norm() + spin * reach;
+    require(speed <= kMaxWallSpeed, [&] {
+      return "wall " + std::to_string(k) + " turns at " + fmt(spin) + " rad/s about a point " +
+             fmt(reach) + " m from the farthest sphere: its surface would move at up to " +
+             fmt(speed) + " m/s there, faster than light (" + fmt(kMaxWallSpeed) +
+             " m/s); check the units of its angular_velocity";
+    });
+  }
+}
+
 void Simulation::rebuild_neighbors() {
   mix_pairs();
   lists_.rebuild(list_context(), skin(), true);
@@ -359,6 +428,7 @@ std::vector<std::array<Id, 2>> Simulation::neighbor_pairs() const { return lists
 
 void Simulation::set_positions(const double* in) {
   energy_ref_valid_ = false;
+  run_.last_move = 0;
   if (ran_) {  // the spheres that move are checked for overlaps at the next run
     const double* x = particles_.arrays().x.data();
     for (std::size_t k = 0; k < particles_.size(); ++k) {

@@ -12,13 +12,13 @@ linked-cell neighbour list, driven from Python with numpy arrays (SI units)::
     sim.run(time=0.1)
 
 The public names are listed in ``tsubu.__all__``: :class:`Simulation`, :class:`Material`,
-:class:`InstabilityError`, the build's :data:`openmp` flag and :data:`__version__`, and the
-modules of filling, pouring, output and scene files.
+:class:`InstabilityError`, :class:`PerformanceWarning`, the build's :data:`openmp` flag and
+:data:`__version__`, and the modules of filling, pouring, output and scene files.
 """
 
 from . import _core
 from .material import Material
-from .simulation import InstabilityError, Simulation
+from .simulation import InstabilityError, PerformanceWarning, Simulation
 from . import fill, output
 from .insert import Inserter
 
@@ -28,4 +28,5 @@ __version__ = "0.1.0"
 #: single-threaded, and the ``threads`` option changes nothing.
 openmp = bool(_core.openmp)
 
-__all__ = ["Material", "Simulation", "InstabilityError", "fill", "Inserter", "output", "openmp", "__version__"]
+__all__ = ["Material", "Simulation", "InstabilityError", "PerformanceWarning", "fill", "Inserter",
+           "output", "openmp", "__version__"]

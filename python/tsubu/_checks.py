@@ -11,7 +11,10 @@ from __future__ import annotations
 
 import math
 import numbers
+import os
 import reprlib
+import sys
+import warnings
 
 import numpy as np
 
@@ -204,3 +207,12 @@ def path(name: str, value) -> "Path":
     if str(value) == "":
         raise ValueError(f"{name} must be a file path, got an empty string")
     return Path(value)
+
+
+def warn(message: str, category: type) -> None:
+    """warnings.warn pointing at the first caller outside the tsubu package (the user's line)."""
+    package = os.path.dirname(os.path.abspath(__file__)) + os.sep
+    frame, level = sys._getframe(1), 2
+    while frame is not None and os.path.abspath(frame.f_code.co_filename).startswith(package):
+        frame, level = frame.f_back, level + 1
+    warnings.warn(message, category, stacklevel=level)

@@ -5,6 +5,7 @@ from __future__ import annotations
 import functools
 import json
 import math
+import os
 import threading
 import time as _time
 from pathlib import Path
@@ -16,7 +17,8 @@ from .material import Material, _check_field, _check_uniform_range, _from_core, 
 
 
 class InstabilityError(RuntimeError):
-    """A run went unstable: a non-finite force, or an overlap beyond ``max_overlap`` of a radius.
+    """A run went unstable: a non-finite force, an overlap beyond ``max_overlap`` of a radius, or
+    a step that moved a sphere too far for the overlap check to see it meet another.
 
     Raised by :meth:`Simulation.run`. The message says what went wrong (the quantity, the step,
     the sphere, or for a pack that bursts between fixed walls the energy it created). The state
@@ -43,6 +45,17 @@ class InstabilityError(RuntimeError):
         super().__init__(message)
         self.step = step
         self.particle = particle
+
+
+class PerformanceWarning(UserWarning):
+    """A setting that gives the same results but costs far more than it should.
+
+    Issued (:func:`warnings.warn`) for ``threads`` beyond twice the threads the machine gives
+    the process, and by a run whose ``skin`` is beyond the largest diameter and fills the
+    neighbour list with many times the pairs that can touch. The message names the setting, its
+    value and what to use instead. Silence it with ``warnings.simplefilter("ignore",
+    tsubu.PerformanceWarning)``.
+    """
 
 
 def _one_thread_at_a_time(*any_thread: str, refused: dict | None = None):
@@ -124,7 +137,10 @@ class Simulation:
         ``critical_time_step()`` (2.31) is refused unless ``allow_unstable_dt`` is True.
     threads : int or None
         OpenMP threads, 1 to 4096. None: OpenMP's default (all cores). Results are
-        bit-identical for any count.
+        bit-identical for any count. More than twice the threads the machine gives the process
+        (``os.sched_getaffinity``), and more than 4, issue a :class:`PerformanceWarning`: each
+        thread beyond the cores waits at every barrier of every step (on 2 cores, 64 threads
+        ran 9x slower than 1, and 4096 threads 2600x).
     parallel_min : int
         Scenes with fewer spheres than this run on one thread, whatever ``threads`` says: there
         a parallel region costs more than it saves (and on a machine whose cores are busy with
@@ -135,7 +151,9 @@ class Simulation:
         given seed whatever the thread count; another seed gives another run.
     skin : float or None
         Neighbour-list skin [m]. None: 0.2 x the mean diameter. The list is rebuilt when a
-        particle has moved more than skin/2 (or a moving wall could reach a new particle).
+        particle has moved more than skin/2 (or a moving wall could reach a new particle). A
+        run whose skin is beyond the largest diameter and whose list holds more than 64 pairs
+        per sphere (and over 100,000 in all) issues a :class:`PerformanceWarning`.
     tangential_history : {"rotate", "literal"}
         How the stored tangential displacement follows the contact. "rotate" (default): kept as
         a vector, rotated into the current tangent plane each step with its length preserved,
@@ -294,12 +312,15 @@ class Simulation:
         """OpenMP threads runs may use, 0 for OpenMP's default (all cores).
 
         Assignable: an integer in [1, 4096], or None for the default. Results are the same bits
-        for any count."""
+        for any count; more than twice the hardware threads (and more than 4) issue a
+        :class:`PerformanceWarning`."""
         return self._core.threads
 
     @threads.setter
     def threads(self, value) -> None:
-        self._core.threads = 0 if value is None else _options.check("threads", value)
+        threads = 0 if value is None else _options.check("threads", value)
+        _warn_threads(threads)
+        self._core.threads = threads
 
     @property
     def parallel_min(self) -> int:
@@ -549,9 +570,11 @@ class Simulation:
         material : Material
             The wall's material (required).
         velocity : array_like, shape (3,)
-            Translation velocity [m/s]. Default zero.
+            Translation velocity [m/s], at most the speed of light (299,792,458 m/s)
+            in magnitude. Default zero.
         angular_velocity : array_like, shape (3,)
-            Angular velocity [rad/s] about ``point``. Default zero.
+            Angular velocity [rad/s] about ``point``. Default zero. A run refuses (ValueError) a
+            rotation that moves the wall faster than light where a sphere is.
         coefficients : array_like, shape (4,), optional
             (a, b, c, d), instead of ``point`` and ``normal``.
 
@@ -561,7 +584,8 @@ class Simulation:
             Without a material, or for arguments that are not numbers.
         ValueError
             For both ``coefficients`` and ``point``/``normal``, a zero normal, non-finite
-            values, or a material whose contact law differs from the scene's.
+            values, a velocity faster than light, or a material whose contact law differs from
+            the scene's.
         """
         if material is None:
             raise TypeError("add_plane needs a material")
@@ -586,7 +610,7 @@ class Simulation:
             normal = (0.0, 0.0, 1.0)
         p = _checks.vec3("point", point)
         nrm = _unit("normal", normal)
-        return self._core.add_plane(p, nrm, self._material(material, scene=True), _checks.vec3("velocity", velocity),
+        return self._core.add_plane(p, nrm, self._material(material, scene=True), _wall_velocity("velocity", velocity),
                                     _checks.vec3("angular_velocity", angular_velocity))
 
     def set_plane_motion(self, wall: int, velocity=None, angular_velocity=None) -> None:
@@ -597,20 +621,23 @@ class Simulation:
         wall : int
             The wall's index (as returned by :meth:`add_plane`).
         velocity : array_like, shape (3,), optional
-            New translation velocity [m/s]. Default None: unchanged.
+            New translation velocity [m/s], at most the speed of light (299,792,458 m/s)
+            in magnitude. Default None: unchanged.
         angular_velocity : array_like, shape (3,), optional
             New angular velocity [rad/s] about the wall's current point. Default None:
-            unchanged.
+            unchanged. A run refuses (ValueError) a rotation that moves the wall faster than
+            light where a sphere is.
 
         Raises
         ------
         TypeError
             For an index that is not an integer, or vectors that are not numbers.
         ValueError
-            For a wall that does not exist or non-finite vectors.
+            For a wall that does not exist, non-finite vectors, or a velocity faster than
+            light.
         """
         state = self.plane(wall)
-        v = state["velocity"] if velocity is None else _checks.vec3("velocity", velocity)
+        v = state["velocity"] if velocity is None else _wall_velocity("velocity", velocity)
         w = state["angular_velocity"] if angular_velocity is None else _checks.vec3("angular_velocity", angular_velocity)
         self._core.set_plane_motion(wall, v, w)
 
@@ -730,7 +757,9 @@ class Simulation:
         steps : int, optional
             Number of steps (>= 0). Give exactly one of ``steps`` and ``time``.
         time : float, optional
-            Simulated time [s] (>= 0).
+            Simulated time [s] (>= 0), rounded to the nearest whole number of steps. 0 runs no
+            step; a time > 0 that rounds to none (below dt/2) raises ValueError rather than run
+            nothing.
         progress : bool or None, default None
             Show a progress bar on stderr (tqdm: simulated time, steps/s, particle-steps/s and
             time left). None: only on an interactive terminal (not in pipes, CI or notebooks),
@@ -757,9 +786,13 @@ class Simulation:
         Raises
         ------
         InstabilityError
-            The run went unstable (the last good state stays readable).
+            The run went unstable (the last good state stays readable): an overlap beyond
+            ``max_overlap``, a non-finite force or velocity, a step that moved a sphere further
+            than the overlap check can follow, or (with fixed walls) an energy balance that grew,
+            audited every 1,000th step and when the run ends.
         ValueError
-            A dt above the stability bound, initial overlaps, or a bad argument.
+            A dt above the stability bound, initial overlaps, a time shorter than half a step,
+            or a bad argument.
         KeyboardInterrupt
             Ctrl-C (SIGINT) during the run.
 
@@ -803,7 +836,9 @@ class Simulation:
                                "hook): wait for run to return")
         self._in_run = True
         try:
-            self._run_hooks(self._core.step_count + steps, everything, bar)
+            start = self._core.step_count
+            self._run_hooks(start + steps, everything, bar)
+            self._audit_energy(start)
         except KeyboardInterrupt:
             if path is not None:
                 self.save(path)
@@ -820,6 +855,7 @@ class Simulation:
 
     def _run_hooks(self, end: int, everything: list, bar) -> None:
         """Steps to ``end``, with the hooks acting at the steps they ask for."""
+        first = True
         while True:
             now = self._core.step_count
             target = end
@@ -835,6 +871,9 @@ class Simulation:
                     target = due
             if now >= end:
                 return
+            if first:
+                self._check_skin()
+                first = False
             if bar is not None:
                 target = min(target, bar.limit(now))
             asked = target - now
@@ -850,11 +889,46 @@ class Simulation:
                 return
 
     def _advance(self, steps: int) -> int:
+        # The energy audit runs once when the whole run ends (_audit_energy), not after each
+        # stretch between hooks.
         try:
-            return self._core.run(steps)
+            return self._core.run(steps, False)
         except _core.InstabilityError as e:
             message, step, particle = e.args
             raise InstabilityError(message, step, particle) from None
+
+    def _audit_energy(self, start: int) -> None:
+        """The energy audit of the end of a run that started at step ``start`` (with fixed walls,
+        if it passed a multiple of 100 steps: InstabilityError if the balance grew;
+        docs/physics.md)."""
+        try:
+            self._core.audit_run_end(start)
+        except _core.InstabilityError as e:
+            message, step, particle = e.args
+            raise InstabilityError(message, step, particle) from None
+
+    def _check_skin(self) -> None:
+        """PerformanceWarning before a run's first step when a skin set beyond the largest
+        diameter fills the neighbour list with far more pairs than can touch (the lists are
+        built now, as the run would build them: a list that cannot fit raises MemoryError)."""
+        if self._core.skin_option <= 0 or self.size == 0:
+            return  # the default skin is a fraction of the mean diameter
+        self._core.prepare_run()
+        pairs, n = self._core.neighbor_pair_count, self.size
+        if pairs <= max(SKIN_PAIRS_PER_SPHERE * n, SKIN_PAIRS_FLOOR):
+            return
+        diameter = 2.0 * float(np.max(self.radii))
+        skin = self.skin
+        if skin <= diameter:
+            return
+        held = self.memory_bytes()
+        lists = held["verlet list"] + held["near list"]
+        _checks.warn(
+            f"skin={skin!r} m is {skin / diameter:.3g} times the largest diameter ({diameter:g} m): the "
+            f"neighbour list holds {pairs} pairs, {pairs / n:.0f} per sphere (a sphere among equal ones "
+            f"touches at most 12), and the lists take {lists / 2**30:.3g} GiB. A skin of a fraction of "
+            "a diameter suffices (None: 0.2 x the mean diameter); a larger one only for spheres "
+            "that move far between rebuilds", PerformanceWarning)
 
     def request_stop(self) -> None:
         """Ask the run in progress (in another thread) to return after its current step, with
@@ -1174,16 +1248,73 @@ def _from_checkpoint_bytes(data: bytes, materials: tuple) -> "Simulation":
 # Far more than any machine's cores: OpenMP would try to start every thread asked for (the
 # declared maximum of threads).
 MAX_THREADS = _options.DECLARATIONS["threads"].maximum
+# Threads up to this many times the hardware threads (and up to OVERSUBSCRIBED_FLOOR) run
+# without a warning: a few threads more than cores cost little (tests run 3 threads on 2 cores),
+# each further one waits at every barrier of every step.
+OVERSUBSCRIPTION = 2
+OVERSUBSCRIBED_FLOOR = 4
+
+
+def _hardware_threads() -> int:
+    """The threads the machine gives this process: its CPU affinity where the OS has one, else
+    os.cpu_count()."""
+    try:
+        return len(os.sched_getaffinity(0))
+    except (AttributeError, OSError):  # pragma: no cover - macOS, Windows
+        return os.cpu_count() or 1
+
+
+def _warn_threads(threads: int) -> None:
+    """PerformanceWarning for ``threads`` beyond OVERSUBSCRIPTION x the hardware threads."""
+    hardware = _hardware_threads()
+    if threads > max(OVERSUBSCRIPTION * hardware, OVERSUBSCRIBED_FLOOR):
+        _checks.warn(
+            f"threads={threads} is more than {OVERSUBSCRIPTION}x the {hardware} hardware thread(s) this "
+            f"process may use (os.sched_getaffinity; os.cpu_count() = {os.cpu_count()}): every thread "
+            "beyond the cores waits at each barrier of each step, and a run can be many times "
+            f"slower (the results are the same bits). Use threads=None (all cores) or at most "
+            f"{hardware}", PerformanceWarning)
+
+
+# A run whose skin is beyond the largest diameter warns when its Verlet list holds more than
+# this many pairs per sphere (a dense pack of equal spheres at the default skin holds about 6:
+# each sphere touches at most 12, and the half list counts a pair once) ...
+SKIN_PAIRS_PER_SPHERE = 64
+# ... and more than this many in all (a smaller list, some 10 MB, costs little whatever its skin).
+SKIN_PAIRS_FLOOR = 100_000
 
 
 def _steps_for(duration: float, dt: float) -> int:
     """The whole number of steps of ``dt`` nearest to ``duration`` (ValueError when that is not a
-    finite count)."""
+    finite count, or when a duration > 0 rounds to no step at all)."""
     count = duration / dt if math.isfinite(dt) else math.inf
     if not count <= 2**62:
         raise ValueError(f"time={duration!r} s is {count:g} steps of dt = {dt!r} s: more than 2**62 "
                          "steps (or dt is not finite: set dt)")
-    return int(round(count))
+    steps = int(round(count))
+    if steps == 0 and duration > 0:
+        raise ValueError(f"time={duration!r} s is shorter than half a step (dt = {dt!r} s): it rounds "
+                         "to 0 steps and the run would do nothing. Give a time of at least dt/2 "
+                         "(steps=1 for one step), or time=0 for no step")
+    return steps
+
+
+#: The fastest a wall may move [m/s]: the speed of light (the core's Simulation::kMaxWallSpeed).
+#: No wall of a Newtonian scene comes near it, and far beyond it a contact's products overflow
+#: doubles: a wall sliding at 1e150 m/s lost its friction force without a word.
+MAX_WALL_SPEED = 299_792_458.0
+
+
+def _wall_velocity(name: str, value) -> tuple[float, float, float]:
+    """A wall's velocity: a finite 3-vector no faster than MAX_WALL_SPEED (ValueError naming
+    ``name``)."""
+    v = _checks.vec3(name, value)
+    speed = math.hypot(*v)
+    if not speed <= MAX_WALL_SPEED:
+        raise ValueError(f"{name} must be at most the speed of light, {MAX_WALL_SPEED:g} m/s, in magnitude: "
+                         "no wall of a Newtonian scene moves faster, and far beyond it the contact "
+                         f"forces overflow doubles (check the units), got {value!r} ({speed:g} m/s)")
+    return v
 
 
 def _unit(name: str, value) -> tuple[float, float, float]:

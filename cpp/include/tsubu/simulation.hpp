@@ -91,7 +91,12 @@ class Simulation : private detail::RunHooks {
                 const Vec3& velocity = Vec3::Zero(), const Vec3& angular_velocity = Vec3::Zero());
   int add_plane(const Vec3& point, const Vec3& normal, int material,
                 const Vec3& velocity = Vec3::Zero(), const Vec3& angular_velocity = Vec3::Zero());
+  // A wall's velocity must be finite and at most kMaxWallSpeed (InvalidArgument); a wall that
+  // rotates is checked when a run starts, where the spheres are (check_wall_speeds).
   void set_plane_motion(int wall, const Vec3& velocity, const Vec3& angular_velocity);
+  // The speed of light [m/s]: no wall of a Newtonian scene moves faster, and far beyond it the
+  // contacts' products overflow doubles (a wall sliding at 1e150 m/s lost its friction).
+  static constexpr double kMaxWallSpeed = 299792458.0;
   const Plane& plane(int wall) const;
   int plane_count() const { return walls_.count(); }
 
@@ -125,6 +130,10 @@ class Simulation : private detail::RunHooks {
   bool hertzian() const;
   // The step a run uses: options().dt, or default_time_step() when that is 0.
   double time_step() const;
+  // The most a step may move a sphere [m] and still let the overlap check see two spheres that
+  // meet head on: a + b - min(max_overlap, 1) a for the two smallest radii a <= b (infinite
+  // with fewer than two spheres). A run stops after a step that moved a sphere further.
+  double max_move() const;
   // Runs `steps` steps and returns how many it took: all of them, unless a stop was requested
   // (request_stop(), or `should_stop` returning true). A stopped run returns at a step boundary,
   // after the step in progress, and leaves the state of that step (positions, velocities, spins,
@@ -132,6 +141,11 @@ class Simulation : private detail::RunHooks {
   // if the run had not stopped. `should_stop`, if given, is called on the running thread
   // between two steps, at most once every `poll_seconds` of wall time (the Python binding checks
   // for Ctrl-C with it); it must not throw nor touch this Simulation.
+  // With fixed walls the energy balance is audited every kEnergyCheck-th step and, if `audit`,
+  // when the run ends (audit_run_end); a caller that cuts one run into stretches passes false
+  // and calls audit_run_end after the last, so that the audit's cost (a pass over the spheres
+  // and the near entries) is paid once. A step that moved a sphere further than max_move()
+  // stops the run before the next step moves anything (InstabilityError, docs/physics.md).
   // A Simulation is used by one thread at a time, but for request_stop(), running(),
   // step_count() and time(): a run started while another thread's run of it is in progress
   // throws std::logic_error.
@@ -141,7 +155,25 @@ class Simulation : private detail::RunHooks {
   // added, since the last run, unless the change did not deepen them (a pack moved as a whole
   // keeps its contacts). A refused run takes no step, and is refused again until the overlap is
   // gone (or initial_overlap raised).
-  long run(long steps, const std::function<bool()>& should_stop = {}, double poll_seconds = 0.02);
+  long run(long steps, const std::function<bool()>& should_stop = {}, double poll_seconds = 0.02,
+           bool audit = true);
+  // The energy audit now, as a run does (check_energy): InstabilityError if the balance grew
+  // since the reference the last run started from. Returns at once when there is nothing to
+  // check (no run yet, walls moving, the state, gravity or pairs changed since).
+  void audit_energy();
+  // The audit of the end of a run that started at step `start`: audit_energy() if the run
+  // passed a multiple of kRunEndAudit steps (and did not end on one of kEnergyCheck, which the
+  // loop audited). So a short run that blew up is caught when it returns, and a loop of
+  // one-step runs pays for one audit (about the cost of a step) per kRunEndAudit steps; the
+  // rule depends on step numbers only, so a run resumed from a checkpoint is audited at the
+  // same steps as the run that was not interrupted.
+  void audit_run_end(long start);
+  static constexpr long kRunEndAudit = 100;
+  // What run() does before its first step, now: check the options and dt, mix the pair table,
+  // select the law, build the neighbour lists if they are due, check the overlaps and the
+  // walls' speeds. Raises what a run would raise before stepping; a run after it starts the
+  // same (the Python layer calls it to look at the lists before a long run).
+  void prepare_run();
   // Asks the run in progress to return after its current step (see run()). Thread-safe and
   // async-signal-safe (one lock-free atomic store): callable from another thread or a signal
   // handler. The request stays until a run stops on it (or throws): one made while no run is in
@@ -180,6 +212,7 @@ class Simulation : private detail::RunHooks {
   void set_velocities(const double* in) {
     particles_.scatter(in, particles_.arrays().v.data());
     energy_ref_valid_ = false;
+    run_.last_move = 0;
   }
   void set_angular_velocities(const double* in) {
     particles_.scatter(in, particles_.arrays().w.data());
@@ -258,6 +291,8 @@ class Simulation : private detail::RunHooks {
   // Pairs in the current list (ids, lower first): all pairs within r_i + r_j + skin.
   std::vector<std::array<Id, 2>> neighbor_pairs() const;
   long rebuild_count() const { return lists_.rebuilds; }
+  // Pairs in the Verlet list (within r_i + r_j + skin at the last rebuild).
+  std::size_t neighbor_pair_count() const { return lists_.pair_partner.size(); }
   long near_refresh_count() const { return lists_.refreshes; }
   // Steps whose particle pass also evaluated the next step's contacts (step.hpp, fused_pass).
   long fused_step_count() const { return run_.fused_steps; }
@@ -289,6 +324,9 @@ class Simulation : private detail::RunHooks {
   [[noreturn]] void report_overlap(double dt) const override;
   [[noreturn]] void report_nonfinite() const override;
   [[noreturn]] void report_nonfinite_velocity() const override;
+  [[noreturn]] void report_fast(double max_move) const override;
+  // A moving wall faster than light (kMaxWallSpeed) where a sphere is: InvalidArgument.
+  void check_wall_speeds() const;
 
   // The parts as the loop and the lists see them.
   detail::World world();
@@ -296,7 +334,6 @@ class Simulation : private detail::RunHooks {
 
   template <class Out>
   void for_each_contact_sum(Out&& out) const;
-  void prepare_run();
   // The compiled law of the scene now, and the entry shapes it needs.
   void select_law();
   void mix_pairs();
@@ -313,6 +350,8 @@ class Simulation : private detail::RunHooks {
   // since `start` by more than half the energy dissipated meanwhile plus twice the kinetic +
   // elastic energy.
   void check_energy(const Energy& start) const;
+  // energy() without the elastic part: the spheres' kinetic, gravitational and dissipated sums.
+  Energy sphere_energy() const;
   int threads() const;
   template <class F>
   void for_each_contact_type(F&& f) const;
@@ -391,6 +430,7 @@ class Simulation : private detail::RunHooks {
   bool energy_ref_valid_ = false;
   long energy_ref_step_ = 0;
   Vec3 energy_ref_gravity_ = Vec3::Zero();
+  double max_move_ = 0;  // max_move(), taken when a run starts
 };
 
 }  // namespace tsubu

@@ -13,6 +13,7 @@ from typing import Callable
 
 import numpy as np
 
+from .. import _checks
 from ..material import Material
 from ..simulation import Simulation
 from .language import MISSING, SceneError, _closest, _join
@@ -132,13 +133,27 @@ class Scene:
         and checkpoints; returns the Simulation. An ``until`` beyond :attr:`end_time` becomes the
         new end time (the one the checkpoints record, which ``tsubu resume`` runs to). A final
         checkpoint is written at the end when the scene has a [checkpoint] table. ``progress``
-        is that of :meth:`tsubu.Simulation.run` (None: a bar on an interactive terminal). Raises InstabilityError (the run went unstable) and
+        is that of :meth:`tsubu.Simulation.run` (None: a bar on an interactive terminal). The run
+        takes the whole number of steps nearest to ``until`` (none when the simulation is within
+        half a step of it). Raises ValueError for an ``until`` more than half a step before the
+        simulation's time (a run cannot go back), InstabilityError (the run went unstable) and
         KeyboardInterrupt (Ctrl-C; a checkpoint is written first when the scene has one)."""
         sim = self.simulation
+        dt = sim.dt
+        half_step = 0.5 * dt if math.isfinite(dt) else 0.0
+        if until is not None:
+            until = _checks.positive("until", until, allow_zero=True)
+            if until < sim.time - half_step:
+                raise ValueError(
+                    f"until={until!r} s is before the simulation's time t = {sim.time!r} s (step "
+                    f"{sim.step_count}): a run cannot go back in time; give an until after "
+                    f"{sim.time!r} s, or run for a duration (tsubu resume --time)")
         end = self.end_time if until is None else until
         # a run taken beyond the scene's end moves it (what tsubu resume of its checkpoints reaches)
         self.end_time = max(self.end_time, end)
         remaining = max(0.0, end - sim.time)
+        if math.isfinite(dt) and round(remaining / dt) == 0:
+            remaining = 0.0  # the end is reached, to within the rounding to whole steps
         kwargs: dict = {"progress": progress}
         if self.checkpoint is not None:
             os.makedirs(os.path.dirname(self.checkpoint["path"]), exist_ok=True)

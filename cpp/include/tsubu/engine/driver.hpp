@@ -58,6 +58,10 @@ struct Stepper {
       }
       if (found.excess > 0) s.hooks.report_overlap(dt);
       if (found.bad) s.hooks.report_nonfinite();
+      // The last step's dt max|v| (known from its particle pass): a sphere that moved further
+      // than max_move may have passed through another, or over a contact, unseen. Checked after
+      // the overlaps, which name a contact the step ran into.
+      if (run.last_move > s.max_move) s.hooks.report_fast(s.max_move);
       ready = fuse && k > 0 && k + 1 < steps && (run.step + 1) % kEnergyCheck != 0 &&
               fusable(s, dt, vmax2, found, min_mass) && !s.hooks.stop_due(clock.last());
       run.fused_steps += ready ? 1 : 0;
@@ -66,7 +70,8 @@ struct Stepper {
           ready ? FusedPass<Law>::run(pv, ContactView(s, dt, 1), lists.reach_below,
                                       lists.reach_above, vmax2, found)
                 : PP::run(pv, vmax2);
-      lists.book_moved(std::sqrt(vmax2) * dt);  // the distance any particle moved: dt max|v|
+      run.last_move = std::sqrt(vmax2) * dt;  // the distance any particle moved: dt max|v|
+      lists.book_moved(run.last_move);
       if (nonfinite) s.hooks.report_nonfinite_velocity();
       if (moving) s.walls.advance(dt);
       s.domain.wrap(s.particles.arrays().x.data(), s.particles.size());

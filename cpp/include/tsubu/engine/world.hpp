@@ -45,13 +45,17 @@ struct RunCounters {
   double dt = 0;    // s: the step of the run in progress (or the last)
   double speed = 1;  // the characteristic impact speed when the run started, m/s
   long fused_steps = 0;  // steps whose particle pass also evaluated the next step's contacts
+  // dt max|v| of the last step [m]: the farthest any sphere moved in it; 0 when not known (no
+  // step yet, or the spheres' state was set since). The next step checks it against
+  // World::max_move.
+  double last_move = 0;
   std::array<double, int(Phase::Count)> phase_seconds{};
 };
 
 namespace detail {
 
 // The energy balance is audited every kEnergyCheck-th step (counted over all runs) of a scene
-// with fixed walls.
+// with fixed walls, and when a run ends (Simulation::run, audit_energy).
 constexpr long kEnergyCheck = 1000;
 
 // What the loop asks of its orchestrator between passes.
@@ -68,6 +72,8 @@ class RunHooks {
   [[noreturn]] virtual void report_overlap(double dt) const = 0;
   [[noreturn]] virtual void report_nonfinite() const = 0;
   [[noreturn]] virtual void report_nonfinite_velocity() const = 0;
+  // The last step moved a sphere further than World::max_move (RunCounters::last_move).
+  [[noreturn]] virtual void report_fast(double max_move) const = 0;
 
  protected:
   ~RunHooks() = default;
@@ -85,6 +91,7 @@ struct World {
   RunHooks& hooks;
   int sphere_material;  // the one material of all spheres, else -1
   int threads;          // threads of the parallel passes (1 below options.parallel_min spheres)
+  double max_move;      // m: the most a step may move a sphere (Simulation::max_move)
 };
 
 }  // namespace detail
