@@ -8,7 +8,7 @@ every bead, or tilts gravity by 2 degrees) and holds for `--hold` seconds. It pr
 kinetic + potential + elastic + dissipated over the hold (zero for an exact booking), beside the
 elastic energy the contacts store and the energy booked as dissipated in the hold, and whether
 the run's own audit raised. The audit raises when the balance grows by more than twice the
-energy in motion and in the springs plus half the dissipation (docs/reliability.md).
+energy in motion and in the springs plus a third of the dissipation (docs/reliability.md).
 
 Usage (from the repository root)::
 

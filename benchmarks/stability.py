@@ -10,7 +10,7 @@ m the reduced mass of the stiffest, lightest contact) and classified:
   caught    the run stopped with tsubu.InstabilityError (an overlap beyond 0.5 r or a
             non-finite force)
   SILENT    a blow-up was seen (energy created: the balance kinetic + gravitational + elastic +
-            step correction + dissipated grew by more than half the energy dissipated plus twice
+            step correction + dissipated grew by more than a third of the energy dissipated plus twice
             the starting kinetic + elastic energy, or a quarter of the current one if larger; a
             sphere behind the floor; a NaN) and the run finished without an error (must never
             happen)
@@ -51,7 +51,7 @@ def balance(sim: tsubu.Simulation) -> tuple[float, float, float]:
 def outcome(sim: tsubu.Simulation, steps: int) -> str:
     """stable / caught / SILENT. With fixed walls nothing supplies energy. A blow-up: a value
     not finite, a centre behind the floor, or energy created -- the balance grew by more than
-    half the energy dissipated plus twice max(the starting kinetic + elastic energy, a quarter
+    a third of the energy dissipated plus twice max(the starting kinetic + elastic energy, a quarter
     of the current one), the criterion of tsubu's own check, looked at 200 times per run
     instead of every 1,000 steps. Caught: tsubu raised InstabilityError at some step of the run
     (a burst seen between its checks counts as caught once the check raises); SILENT: a blow-up

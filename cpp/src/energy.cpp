@@ -72,6 +72,9 @@ Energy Simulation::energy_now() const {
   return e;
 }
 
+// The share of the energy booked as dissipated that the audit lets the balance grow by.
+constexpr double kBookingTolerance = 1.0 / 3.0;
+
 void Simulation::check_energy(const Energy& start) const {
   const Energy now = energy_now();
   const double created = (now.total() + now.step_correction + now.dissipated) -
@@ -86,7 +89,11 @@ void Simulation::check_energy(const Energy& start) const {
   // bound. A burst ends with the pack flying apart: several times its starting energy appears as
   // kinetic energy: the threshold takes only a quarter of the energy now (a pack at rest that
   // starts to fall needs some), so that twice the start's energy created cannot hide itself.
-  if (!(created > 0.5 * std::max(lost, 0.0) + 2.0 * scale)) return;
+  // Of the booked dissipation only the normal dashpot's is first-order (friction and rolling
+  // book the work they do, docs/physics.md): a third of it is tolerated, above the 0.25 that one
+  // damped contact at 0.95 of its bound measures; a burst that gives its energy to friction
+  // books about 0.8 of what it lost as created.
+  if (!(created > kBookingTolerance * std::max(lost, 0.0) + 2.0 * scale)) return;
   throw InstabilityError(
       "unstable at step " + std::to_string(run_.step) + " (t = " + fmt(run_.time) +
           " s): the energy balance grew by " + fmt(created) + " J since step " +

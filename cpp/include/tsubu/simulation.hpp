@@ -347,7 +347,7 @@ class Simulation : private detail::RunHooks {
   // The compiled law this scene's pairs and options select (contact/selection.hpp).
   LawKey law_key() const;
   // Raises InstabilityError if the energy balance (mechanical + dissipated, energy_now()) grew
-  // since `start` by more than half the energy dissipated meanwhile plus twice the kinetic +
+  // since `start` by more than a third of the energy dissipated meanwhile plus twice the kinetic +
   // elastic energy.
   void check_energy(const Energy& start) const;
   // energy() without the elastic part: the spheres' kinetic, gravitational and dissipated sums.
