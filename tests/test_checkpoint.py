@@ -227,6 +227,7 @@ WRITER = textwrap.dedent("""
 """)
 
 
+@pytest.mark.slow
 def test_killing_a_writer_at_random_moments_leaves_a_whole_file(tmp_path):
     """A process saving a 60,000-sphere checkpoint over and over is killed (SIGKILL) at random
     moments: the file there is always a complete checkpoint (the old one or the new one)."""

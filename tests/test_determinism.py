@@ -114,7 +114,11 @@ def assert_identical(a: tsubu.Simulation, b: tsubu.Simulation):
         assert np.array_equal(ca[key], cb[key]), key
 
 
-@pytest.fixture(scope="module", params=list(SCENES))
+# (the Hertz and literal scenes repeat what the others check, with another law: once, not in
+# the sanitizer build, where they take minutes)
+@pytest.fixture(scope="module", params=[pytest.param(name, marks=pytest.mark.slow)
+                                        if name in ("hertz", "literal") else name
+                                        for name in SCENES])
 def reference(request):
     """(scene name, its 1-thread run), checked to be a real test of the contact code."""
     sim = run_scene(1, request.param)

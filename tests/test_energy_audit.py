@@ -79,6 +79,7 @@ def add_a_sphere(sim):
     sim.add_sphere((BOX / 2, BOX / 2, 3 * BOX), RADIUS, sim.materials[0])
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("change", [zero_velocities, tilt_gravity, add_a_lid, override_a_pair,
                                     add_a_sphere], ids=lambda f: f.__name__)
 def test_a_settled_frictional_bed_keeps_running_after_a_change_from_outside(glass_bed, change):
@@ -101,6 +102,7 @@ def test_a_static_bed_books_no_dissipation_that_did_not_happen(glass_bed):
     assert abs(balance(sim) - before) < 0.1 * elastic
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("slip_rule", ["frozen", "truncate"])
 @pytest.mark.parametrize("kind", ["linear", "hertz", "rolling"])
 def test_static_holds_of_every_law_keep_the_balance(kind, slip_rule):

@@ -78,6 +78,7 @@ def test_oblique_collision_output_files(oblique):
     draw_figure(module, out)
 
 
+@pytest.mark.slow
 def test_column_collapse_run_out(tmp_path):
     module = load_example("column_collapse")
     (s,) = module.main(["--quick", "--no-figure", "--out", str(tmp_path)])
@@ -96,6 +97,7 @@ def test_column_collapse_run_out(tmp_path):
     draw_figure(module, tmp_path)
 
 
+@pytest.mark.slow
 def test_pouring_heap(tmp_path):
     module = load_example("pouring_heap")
     s = module.main(["--quick", "--no-figure", "--out", str(tmp_path)])

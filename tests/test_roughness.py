@@ -479,6 +479,7 @@ def settle(wall_sigma, pair_sigma, duration=0.08, sample=100):
     return R - zmin, pe0 - pe1, np.array(ke), np.array(t), sim.law
 
 
+@pytest.mark.slow
 def test_pack_settles_on_a_rough_floor():
     """The pack with a rough floor and walls (sigma 15 deg) and rough pairs (sigma 10 deg)
     against the same pack with smooth surfaces, 0.08 s:
