@@ -64,8 +64,8 @@ struct OptionDeclaration {
   const char* core_unit = "";     // the core's unit where scale != 1
   std::uint64_t integer_maximum = 0;  // an Integer's maximum, exactly (2^64 - 1 is not a double)
   OptionFamily checked_for = OptionFamily::Any;  // a material's or pair's option
-  // Non-empty: a value > 0 needs a Hertzian material or pair (why, for the message), as the work
-  // of adhesion does; its range is checked on every material.
+  // Non-empty: a value > 0 needs a Hertzian material or pair (why, for the message: a law
+  // offered on Hertz's law only); its range is checked on every material.
   const char* needs_hertzian = "";
   // A run Choice the contact laws' selection reads (contact/selection.hpp): the core keeps it in
   // Options::law_choices (law_choice_slot(name)), and the bindings, the checks and the
