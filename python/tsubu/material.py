@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field, fields
+from typing import TYPE_CHECKING, Any
 
 from . import _core, _options
 from ._options import DECLARATIONS
@@ -70,6 +71,10 @@ class Material:
     """
 
     name: str | None = field(default=None)
+
+    if TYPE_CHECKING:  # (type checkers see no declared field: any keyword, any attribute)
+        def __init__(self, *args: Any, **fields: Any) -> None: ...
+        def __getattr__(self, name: str) -> Any: ...
 
     def __post_init__(self) -> None:
         set_ = object.__setattr__

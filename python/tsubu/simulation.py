@@ -8,6 +8,7 @@ import math
 import threading
 import time as _time
 from pathlib import Path
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -139,6 +140,9 @@ class Simulation:
     :meth:`request_stop` and :attr:`running` may be called meanwhile. Calls that overlap a
     short call of another thread wait for it.
     """
+
+    if TYPE_CHECKING:  # (type checkers do not see the made constructor: any keyword)
+        def __init__(self, *args: Any, **options: Any) -> None: ...
 
     def _init(self, options: dict) -> None:
         """The constructor (``__init__``, made by _declared_options, passes its arguments as
