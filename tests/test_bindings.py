@@ -67,7 +67,8 @@ def test_one_table_per_enum(argument):
         obj, attribute = _core.PairParams(), argument
     else:
         obj = _core.Simulation()
-        attribute = {"tangential_history": "history_rule", "slip_rule": "slip_rule"}[argument]
+        attribute = {"tangential_history": "history_rule", "slip_rule": "slip_rule",
+                     "adhesion": "adhesion"}[argument]
     with pytest.raises(ValueError) as from_core:
         setattr(obj, attribute, "x")
     assert str(from_core.value) == str(from_python.value)

@@ -21,6 +21,8 @@ DOCS = pathlib.Path(__file__).resolve().parents[1] / "docs"
 # The Simulation constructor's option -> the _core.Simulation property that stores it (None: not
 # stored as is: hertz_force is the bool `repulsive`).
 CORE_PROPERTY = {"skin": "skin_option", "tangential_history": "history_rule", "hertz_force": None}
+# Options a linear material (or pair) refuses whatever their value: checked on a Hertzian one.
+HERTZIAN_ONLY = ("poisson_ratio", "work_of_adhesion")
 
 
 def _names(scope):
@@ -118,12 +120,13 @@ def _core_accepts(d, value):
         return None                     # never sees it (Python refuses it in its own units)
     try:
         if "material" in d.scopes:
-            base = {"youngs_modulus": 1e9} if d.name == "poisson_ratio" else {}
+            base = {"youngs_modulus": 1e9} if d.name in HERTZIAN_ONLY else {}
             m = _core.Material(**base)
             setattr(m, d.name, core_value)
             _core.validate_material(m)
         elif "pair" in d.scopes:
-            base = {"effective_modulus": 1e9} if d.name == "effective_shear_modulus" else {}
+            base = ({"effective_modulus": 1e9}
+                    if d.name in ("effective_shear_modulus",) + HERTZIAN_ONLY else {})
             p = _core.PairParams(kn=1e3, kt=2e2, restitution=0.5, friction=0.5, **base)
             setattr(p, d.name, core_value)
             _core.validate_pair(p)
@@ -180,7 +183,7 @@ def test_material_checks_what_the_declaration_says(name):
     d = DECLARATIONS[name]
     if d.kind != "real":
         return
-    base = {"youngs_modulus": 1e9} if name == "poisson_ratio" else {}
+    base = {"youngs_modulus": 1e9} if name in HERTZIAN_ONLY else {}
     for value in _boundary_values(d):
         declared = _python_accepts(d, value) is True
         try:

@@ -78,8 +78,8 @@ BAD_VALUES = [
      'materials.glass.shadow = "rejct": must be "reject", "weighted" or "none" (did you mean "reject"?)'),
     (("materials", "glass", "frition"), 0.3,
      "materials.glass.frition = 0.3: unknown key; allowed: density, kn, kt, youngs_modulus, poisson_ratio, "
-     "restitution, friction, rolling_friction, tangential_damping, roughness, roughness_distribution, "
-     "shadow (did you mean friction?)"),
+     "restitution, friction, rolling_friction, tangential_damping, roughness, work_of_adhesion, "
+     "roughness_distribution, shadow (did you mean friction?)"),
     (("simulation", "duration"), scene.MISSING, "simulation.duration: required key missing (Simulated time to run)"),
     (("simulation", "duration"), -1.0, "simulation.duration = -1.0: must be a finite number >= 0"),
     (("simulation", "gravity"), [0, -9.81], "simulation.gravity = [0, -9.81]: must be an array of 3 numbers [m/s^2]"),

@@ -16,7 +16,7 @@ class Material:
     """
     One material (SI units, roughness in radians)
     """
-    fields: typing.ClassVar[tuple] = ('density', 'youngs_modulus', 'poisson_ratio', 'kn', 'kt', 'restitution', 'friction', 'rolling_friction', 'tangential_damping', 'roughness', 'roughness_distribution', 'shadow')
+    fields: typing.ClassVar[tuple] = ('density', 'youngs_modulus', 'poisson_ratio', 'kn', 'kt', 'restitution', 'friction', 'rolling_friction', 'tangential_damping', 'roughness', 'work_of_adhesion', 'roughness_distribution', 'shadow')
     def __init__(self, **kwargs) -> None:
         """
         Keywords: any of `fields`; the others keep their defaults
@@ -112,6 +112,14 @@ class Material:
     def tangential_damping(self, arg0: typing.SupportsFloat | typing.SupportsIndex) -> None:
         ...
     @property
+    def work_of_adhesion(self) -> float:
+        """
+        Work of adhesion of two surfaces (2 x the surface energy) of a Hertzian material: JKR or DMT (docs/physics.md). [J/m^2] Must be a finite number >= 0.
+        """
+    @work_of_adhesion.setter
+    def work_of_adhesion(self, arg0: typing.SupportsFloat | typing.SupportsIndex) -> None:
+        ...
+    @property
     def youngs_modulus(self) -> float:
         """
         Young's modulus E: makes the material Hertz-Mindlin (then kn, kt must not be given). [Pa] Must be a finite number > 0 (or 0 for a linear material).
@@ -123,7 +131,7 @@ class PairParams:
     """
     The contact parameters of one pair of materials
     """
-    fields: typing.ClassVar[tuple] = ('effective_modulus', 'effective_shear_modulus', 'kn', 'kt', 'restitution', 'friction', 'rolling_friction', 'tangential_damping', 'roughness', 'roughness_distribution', 'shadow')
+    fields: typing.ClassVar[tuple] = ('effective_modulus', 'effective_shear_modulus', 'kn', 'kt', 'restitution', 'friction', 'rolling_friction', 'tangential_damping', 'roughness', 'work_of_adhesion', 'roughness_distribution', 'shadow')
     def __init__(self, **kwargs) -> None:
         """
         Keywords: any of `fields`; the others keep their defaults
@@ -218,7 +226,16 @@ class PairParams:
     @tangential_damping.setter
     def tangential_damping(self, arg0: typing.SupportsFloat | typing.SupportsIndex) -> None:
         ...
+    @property
+    def work_of_adhesion(self) -> float:
+        """
+        Work of adhesion of two surfaces (2 x the surface energy) of a Hertzian material: JKR or DMT (docs/physics.md). [J/m^2] Must be a finite number >= 0.
+        """
+    @work_of_adhesion.setter
+    def work_of_adhesion(self, arg0: typing.SupportsFloat | typing.SupportsIndex) -> None:
+        ...
 class Simulation:
+    adhesion: str
     allow_unstable_dt: bool
     history_rule: str
     rebuild_every_step: bool

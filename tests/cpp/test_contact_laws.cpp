@@ -1,5 +1,7 @@
 // Unit tests of the contact evaluators, each against its equation in the seed notes.
 #include <cmath>
+#include <limits>
+#include <type_traits>
 
 #include "check.hpp"
 #include "tsubu/contact/law.hpp"
@@ -147,6 +149,118 @@ void test_law_combination() {
   CHECK(res.power > 0);
 }
 
+// ---- adhesive laws (contact/adhesive.hpp) ------------------------------------------------
+
+PairParams adhesive(double w, double floor = -std::numeric_limits<double>::infinity()) {
+  Material m;
+  m.youngs_modulus = 1e7;
+  m.poisson_ratio = 0.3;
+  m.restitution = 0.5;
+  m.friction = 0.5;
+  m.work_of_adhesion = w;
+  PairParams p = mix(m, m);
+  p.normal_floor = floor;
+  p.finalise();
+  return p;
+}
+
+// The JKR law's overlap at contact radius a: delta = a^2/R - sqrt(2 pi w a / E*).
+double jkr_overlap(const PairParams& p, double R, double a) {
+  return a * a / R - std::sqrt(2 * M_PI * p.work_of_adhesion * a / p.effective_modulus);
+}
+
+// A law's force (no dashpot: vn = 0) at overlap delta, reduced radius R, through its lane form.
+template <class N>
+double lane_force(const PairParams& p, double R, double delta, double vn = 0, double* size = nullptr) {
+  double q[N::kLaneParams], e[N::kEntryTerms], power;
+  N::pack(p, q);
+  N::entry_terms(p, R, e);
+  const NormalState s = N::state(q, e, delta);
+  if (size) *size = s.size;
+  const double eta = 3e-3;
+  if constexpr (std::is_invocable_v<decltype(&N::force), const double*, const double*,
+                                    const NormalState&, double, double, double, double&>)
+    return N::force(q, e, s, delta, eta, vn, power);
+  else
+    return N::force(q, s, delta, eta, vn, power);
+}
+
+void test_adhesive_laws_at_zero_adhesion_are_hertz() {
+  // w = 0: JKR and DMT give Hertz's force bit for bit (with a dashpot, and clipped or not), and
+  // its energy.
+  const double R = 0.5e-3;
+  for (double floor : {-std::numeric_limits<double>::infinity(), 0.0})
+    for (double delta : {1e-9, 3.7e-7, 2e-6, 5e-5, 0.0, -1e-7})
+      for (double vn : {0.0, -0.2, 0.3}) {
+        const PairParams p = adhesive(0.0, floor);
+        const double hertz = lane_force<HertzNormal>(p, R, delta, vn);
+        CHECK(lane_force<JkrNormal>(p, R, delta, vn) == hertz);
+        CHECK(lane_force<DmtNormal>(p, R, delta, vn) == hertz);
+        CHECK(JkrNormal::elastic_energy(p, delta, R) == HertzNormal::elastic_energy(p, delta, R));
+        CHECK(DmtNormal::elastic_energy(p, delta, R) == HertzNormal::elastic_energy(p, delta, R));
+        CHECK(JkrNormal::elastic_force(p, delta, R) == HertzNormal::elastic_force(p, delta, R));
+      }
+  CHECK(JkrNormal::separation(adhesive(0.0), R) == 0.0);
+}
+
+void test_jkr_closed_form() {
+  const double R = 0.5e-3, w = 0.1;
+  const PairParams p = adhesive(w);
+  const double E = p.effective_modulus;
+  const double Fc = 1.5 * M_PI * w * R;  // force-controlled pull-off
+  const double ac = std::cbrt(M_PI * w * R * R / (8 * E));
+  const double dc = -0.75 * std::cbrt(M_PI * M_PI * w * w * R / (E * E));
+  CHECK_CLOSE(JkrNormal::separation(p, R), -dc, 1e-15 * -dc);
+  CHECK_CLOSE(jkr_overlap(p, R, ac), dc, 1e-12 * -dc);  // delta_c = delta(a_c)
+  // The contact radius solves delta(a) = delta on the stable branch, from delta_c up.
+  for (double x : {1.0, 1.0001, 1.01, 1.3, 2.0, 4.0, 30.0, 1e3}) {
+    const double a = ac * x, delta = jkr_overlap(p, R, a);
+    double got;
+    lane_force<JkrNormal>(p, R, delta, 0, &got);
+    CHECK_CLOSE(got, a, (x < 1.01 ? 1e-6 : 1e-12) * a);
+    // F = 4 E* a^3 / (3R) - sqrt(8 pi w E* a^3)
+    const double F = 4 * E * a * a * a / (3 * R) - std::sqrt(8 * M_PI * w * E * a * a * a);
+    CHECK_CLOSE(lane_force<JkrNormal>(p, R, delta), F, 1e-9 * std::max(std::abs(F), Fc));
+    CHECK_CLOSE(JkrNormal::elastic_force(p, delta, R), F, 1e-9 * std::max(std::abs(F), Fc));
+  }
+  // At delta_c the force is -5/9 F_c; its minimum, -F_c, at a = (9 pi w R^2 / (8 E*))^(1/3).
+  CHECK_CLOSE(lane_force<JkrNormal>(p, R, dc), -5.0 / 9.0 * Fc, 1e-6 * Fc);
+  const double af = std::cbrt(9 * M_PI * w * R * R / (8 * E));
+  CHECK_CLOSE(lane_force<JkrNormal>(p, R, jkr_overlap(p, R, af)), -Fc, 1e-12 * Fc);
+  // The energy is the work of the force from delta = 0: zero there, dU/d delta = F.
+  CHECK(JkrNormal::elastic_energy(p, 0.0, R) == 0.0);
+  for (double delta : {0.9 * dc, 0.3 * dc, 2e-7, 3e-6}) {
+    const double h = 1e-4 * -dc;
+    const double dU = (JkrNormal::elastic_energy(p, delta + h, R) - JkrNormal::elastic_energy(p, delta - h, R)) / (2 * h);
+    CHECK_CLOSE(dU, JkrNormal::elastic_force(p, delta, R), 1e-6 * Fc);
+  }
+  // The energy lost when the contact breaks at delta_c: 7.09 (w^5 R^4 / E*^2)^(1/3) (to the
+  // three digits of the closed form's constant).
+  const double lost = JkrNormal::elastic_energy(p, dc, R);
+  CHECK_CLOSE(lost, 7.09 * std::cbrt(std::pow(w, 5) * std::pow(R, 4) / (E * E)), 1e-3 * lost);
+  // ... and its lane form agrees.
+  double q[JkrNormal::kLaneParams], e[JkrNormal::kEntryTerms];
+  JkrNormal::pack(p, q);
+  JkrNormal::entry_terms(p, R, e);
+  CHECK_CLOSE(JkrNormal::lane_energy(q, e, dc), lost, 1e-12 * lost);
+  CHECK(JkrNormal::lane_energy(q, e, 0.0) == 0.0);
+  CHECK(JkrNormal::entry_separation(e) == JkrNormal::separation(p, R));
+}
+
+void test_dmt_closed_form() {
+  const double R = 0.5e-3, w = 0.1;
+  const PairParams p = adhesive(w);
+  const double Fc = 2 * M_PI * w * R;
+  for (double delta : {1e-9, 1e-7, 2e-6}) {
+    const double hertz = HertzNormal::elastic_force(p, delta, R);
+    CHECK_CLOSE(lane_force<DmtNormal>(p, R, delta), hertz - Fc, 1e-12 * Fc);
+    CHECK_CLOSE(DmtNormal::elastic_force(p, delta, R), hertz - Fc, 1e-12 * Fc);
+    CHECK_CLOSE(DmtNormal::elastic_energy(p, delta, R),
+                HertzNormal::elastic_energy(p, delta, R) - Fc * delta, 1e-12 * Fc * delta);
+  }
+  static_assert(!DmtNormal::kSticky && JkrNormal::kSticky);
+}
+
 }  // namespace
 
 int main() {
@@ -157,5 +271,8 @@ int main() {
   test_literal_only_grows();
   test_rolling_cap();
   test_law_combination();
+  test_adhesive_laws_at_zero_adhesion_are_hertz();
+  test_jkr_closed_form();
+  test_dmt_closed_form();
   return tsubu_test::finish("test_contact_laws");
 }

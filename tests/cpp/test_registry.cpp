@@ -14,7 +14,10 @@ namespace {
 void test_every_combination_is_compiled() {
   const std::size_t expected = CoreLaws::size * RollingLaws::size * RoughnessLaws::size;
   CHECK(compiled_law_count() == expected);
-  CHECK(expected == 28);  // 4 linear and 3 Hertzian cores, x 2 rolling x 2 roughness
+  // 4 linear, 3 Hertzian and 2 adhesive (JKR, DMT) cores, x 2 rolling x 2 roughness
+  CHECK(expected == 36);
+  const std::size_t jkr = NormalLaws::index_of<JkrNormal>(), dmt = NormalLaws::index_of<DmtNormal>();
+  CHECK(jkr == 2 && dmt == 3);
   std::set<std::string> names;
   std::set<StepFunction> steps;
   LawKey k;
@@ -26,7 +29,11 @@ void test_every_combination_is_compiled() {
             // A core is a linear spring with the restitution dashpot and a linear tangential
             // law, or Hertz with the Hertzian dashpot and Mindlin (or no friction).
             const bool mindlin = k.tangential >= 4;
-            const bool core = k.normal == k.damping &&
+            // An adhesive normal law (JKR, DMT) goes with the Hertzian dashpot and Mindlin's
+            // frozen-slip spring only.
+            const bool adhesive = k.normal == jkr || k.normal == dmt;
+            const bool core = adhesive ? (k.damping == 1 && k.tangential == 4)
+                              : k.normal == k.damping &&
                               (k.tangential == 0 || mindlin == (k.normal == 1)) &&
                               !(k.normal == 1 && (k.tangential == 2 || k.tangential == 1 || k.tangential == 3));
             bool found = true;
@@ -42,7 +49,8 @@ void test_every_combination_is_compiled() {
             steps.insert(law.step);
             // What it reports follows from its slots.
             CHECK(law.history_width == (k.tangential == 0 ? 0 : mindlin ? 4 : 3));
-            CHECK(law.entry_width == (k.normal == 1 ? 2 : 1));
+            CHECK(law.entry_width == (k.normal == 1 ? 2 : k.normal == jkr ? 6 : k.normal == dmt ? 3 : 1));
+            CHECK(law.sticky == (k.normal == jkr));
             CHECK(law.rolling == (k.rolling == 1));
             CHECK(law.rough_width == (k.roughness == 1 ? 6 : 0));
             CHECK((law.name().find("roughness") != std::string::npos) == (k.roughness == 1));

@@ -214,6 +214,21 @@ inline constexpr OptionDeclaration kTable[] = {
             degrees(real("roughness", kLaw, "degrees", 0, false, 90, true, 0, "0",
                          "Standard deviation of the roughness scatter angle "
                          "(docs/roughness.md)."))),
+    details("Work of adhesion w [J/m^2] >= 0 of two surfaces of this material (``2 gamma``, "
+            "gamma its surface energy). Default 0 (no adhesion). Only for a Hertzian material: "
+            "w > 0 makes the scene adhesive, with the normal law chosen by "
+            "``Simulation(adhesion=...)``: JKR (default; the contact is made at zero overlap and "
+            "holds to the negative overlap ``delta_c = -(3/4) (pi^2 w^2 R* / E*^2)^(1/3)``, "
+            "pull-off force ``(3/2) pi w R*``) or DMT (Hertz's force less ``2 pi w R*``, "
+            "pull-off ``2 pi w R*``), with the Hertzian dashpot and Mindlin's spring "
+            "(docs/physics.md). Two materials mix as ``sqrt(w_a w_b)`` (Dupre's ``w_ab = gamma_a "
+            "+ gamma_b - gamma_ab`` with Berthelot's rule for the interface). Roughness, "
+            "``hertz_force=\"repulsive\"`` and ``slip_rule=\"truncate\"`` are not offered with "
+            "adhesion.",
+            needs_hertzian("adhesion is offered on Hertz's law",
+                           real("work_of_adhesion", kLaw, "J/m^2", 0, false, kInf, false, 0, "0",
+                                "Work of adhesion of two surfaces (2 x the surface energy) of a "
+                                "Hertzian material: JKR or DMT (docs/physics.md)."))),
     details("Distribution of dG: zero-mean normal with standard deviation sigma, truncated to "
             "``abs(dG) < 90`` degrees (default), or uniform on [-sqrt(3) sigma, sqrt(3) sigma] "
             "(same standard deviation).",
@@ -279,6 +294,14 @@ inline constexpr OptionDeclaration kTable[] = {
             "(docs/physics.md).",
             choice("hertz_force", kRun, ChoiceNames{"signed", "repulsive"}, "\"signed\"",
                    "Normal force of Hertzian materials.")),
+    details("The adhesive normal law of a scene whose materials have a ``work_of_adhesion`` > 0 "
+            "(unused otherwise). \"jkr\" (default): Johnson-Kendall-Roberts, a neck that holds "
+            "the contact to a negative overlap; \"dmt\": Derjaguin-Muller-Toporov, Hertz's force "
+            "less a constant pull while in contact (docs/physics.md). Adhesion is not offered "
+            "with roughness, ``hertz_force=\"repulsive\"``, ``slip_rule=\"truncate\"`` or "
+            "``tangential_history=\"literal\"`` (the first run raises ValueError).",
+            law_choice(choice("adhesion", kRun, ChoiceNames{"jkr", "dmt"}, "\"jkr\"",
+                              "Adhesive normal law of materials with a work_of_adhesion."))),
     details("The normal impact speed [m/s] at which a Hertzian scene's contact duration, default "
             "dt and stability bound are evaluated (Hertzian contacts stiffen with speed). None: "
             "twice the largest sphere speed (two spheres meeting head on), at least 1 m/s, "

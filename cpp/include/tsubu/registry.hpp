@@ -12,6 +12,7 @@
 #include <tuple>
 #include <type_traits>
 
+#include "contact/adhesive.hpp"
 #include "contact/damping.hpp"
 #include "contact/normal.hpp"
 #include "contact/rolling.hpp"
@@ -27,11 +28,26 @@ struct World;
 }
 
 // The evaluators each slot can hold (contact/*.hpp).
-using NormalLaws = TypeList<HookeNormal, HertzNormal>;
+using NormalLaws = TypeList<HookeNormal, HertzNormal, JkrNormal, DmtNormal>;
 using DampingLaws = TypeList<RestitutionDamping, HertzDamping>;
 using TangentialLaws = TypeList<NoTangential, TangentialRotate, TangentialLiteral,
                                 TangentialRotateTruncate, MindlinRotate, MindlinRotateTruncate>;
 using RollingLaws = TypeList<NoRolling, RollingFriction>;
+// The adhesive normal laws, in the order of the run option adhesion's choices (jkr, dmt,
+// option_table.hpp): a scene whose Hertzian materials have a work of adhesion takes one
+// (contact/selection.hpp).
+struct AdhesiveNormalLaws {
+  using List = TypeList<JkrNormal, DmtNormal>;
+  static constexpr std::size_t size = List::size;
+  // Index k of this list as an index into NormalLaws (NormalLaws::size for none).
+  static std::size_t index(std::size_t k) {
+    std::size_t at = NormalLaws::size, i = 0;
+    List::for_each([&](auto* law) {
+      if (i++ == k) at = NormalLaws::index_of<std::remove_pointer_t<decltype(law)>>();
+    });
+    return at;
+  }
+};
 using RoughnessLaws = TypeList<NoRoughness, StochasticRoughness>;
 
 // The normal, damping and tangential laws that belong together (a Hertzian spring with the
@@ -49,7 +65,11 @@ using CoreLaws = TypeList<Core<HookeNormal, RestitutionDamping, NoTangential>,
                           Core<HookeNormal, RestitutionDamping, TangentialRotateTruncate>,
                           Core<HertzNormal, HertzDamping, NoTangential>,
                           Core<HertzNormal, HertzDamping, MindlinRotate>,
-                          Core<HertzNormal, HertzDamping, MindlinRotateTruncate>>;
+                          Core<HertzNormal, HertzDamping, MindlinRotateTruncate>,
+                          // adhesive Hertzian laws: always with Mindlin's spring (mu = 0 gives
+                          // no tangential force), frozen slip
+                          Core<JkrNormal, HertzDamping, MindlinRotate>,
+                          Core<DmtNormal, HertzDamping, MindlinRotate>>;
 
 // A scene's choice: one index per slot, into the lists above.
 struct LawKey {

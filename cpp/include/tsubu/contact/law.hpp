@@ -86,7 +86,7 @@ struct ContactLaw {
     const NormalState s = Normal::state(q, e, delta);
     const double eta_n = Damping::lane(e + Normal::kEntryTerms, s);
     double fn;
-    if constexpr (kForceReadsEntry)  // a law whose force reads the entry's terms
+    if constexpr (kForceReadsEntry)  // a law whose force reads the entry's terms (DMT's F_c)
       fn = Normal::force(q, e, s, delta, eta_n, vn, power);
     else
       fn = Normal::force(q, s, delta, eta_n, vn, power);

@@ -1,7 +1,8 @@
 // Normal elastic laws. A normal law owns its parameters and their mixing rule, its force in lane
-// form, its elastic energy and the stiffness the time-step bounds use.
+// form, its elastic energy and the stiffness the time-step bounds use. (The adhesive laws, JKR and
+// DMT, are in adhesive.hpp.)
 //
-// A law whose contact, once made, survives to a negative overlap (an adhesive neck) says so
+// A law whose contact, once made, survives to a negative overlap (an adhesive neck, JKR) says so
 // with kSticky = true and gives the largest separation a touching contact survives
 // (separation(), and entry_separation() from the entry's terms), and the energy its normal
 // spring holds from the lane's parameters (lane_energy(), booked as dissipated when the contact

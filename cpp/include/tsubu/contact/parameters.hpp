@@ -24,6 +24,7 @@
 #pragma once
 
 #include "../type_list.hpp"
+#include "adhesive.hpp"
 #include "damping.hpp"
 #include "normal.hpp"
 #include "rolling.hpp"
@@ -45,6 +46,7 @@ struct NoMaterialFields {};
 using ParameterSets =
     TypeList<ParameterSet<HookeNormal::Params>,                 // kn
              ParameterSet<HertzMaterial, HertzParams>,           // E, nu; E*, G*
+             ParameterSet<AdhesionParams>,                       // w
              ParameterSet<RestitutionDamping::Properties,         // e
                           RestitutionDamping::Params>,
              ParameterSet<NoMaterialFields<HertzDamping>, HertzDamping::Params>,

@@ -37,20 +37,47 @@ inline double rayleigh_time(const Material& m, double r) {
 // What a pair's parameters ask of the slots (a scene's: what any of its pairs asks, add()).
 struct PairNeeds {
   bool friction = false, rolling = false, rough = false;
+  bool adhesive = false;  // a Hertzian pair with a work of adhesion (contact/adhesive.hpp)
   void add(const PairNeeds& o) {
     friction |= o.friction;
     rolling |= o.rolling;
     rough |= o.rough;
+    adhesive |= o.adhesive;
   }
 };
 inline PairNeeds needs(const PairParams& p, bool hertz) {
   return {hertz ? MindlinRotate::used(p) : FrictionParams::used(p), RollingParams::used(p),
-          RoughnessParams::used(p)};
+          RoughnessParams::used(p), hertz && AdhesionParams::used(p)};
+}
+
+// A Hertzian scene with a work of adhesion takes its adhesive core (registry.hpp), the normal
+// law the run option adhesion names (a law choice, option_table.hpp), with the Hertzian dashpot
+// and Mindlin's frozen-slip spring (mu = 0 gives no tangential force). Throws InvalidArgument
+// for what adhesion is not offered with.
+inline constexpr std::size_t kAdhesionChoice = law_choice_slot("adhesion");
+static_assert(choice_count(option_declaration("adhesion").choices) == AdhesiveNormalLaws::size,
+              "one adhesive normal law per choice of the adhesion option");
+inline LawKey select_adhesive(const PairNeeds& n, const Options& o) {
+  if (n.rough) throw InvalidArgument("roughness is not offered with adhesion (work_of_adhesion > 0)");
+  if (o.repulsive)
+    throw InvalidArgument("hertz_force='repulsive' clips the adhesive pull: not offered with "
+                          "adhesion (work_of_adhesion > 0)");
+  if (o.slip != SlipRule::Frozen || o.history != HistoryRule::Rotate)
+    throw InvalidArgument("adhesive scenes (work_of_adhesion > 0) use slip_rule='frozen' and "
+                          "tangential_history='rotate'");
+  LawKey key;
+  key.normal = AdhesiveNormalLaws::index(static_cast<std::size_t>(o.law_choices[kAdhesionChoice]));
+  key.damping = DampingLaws::index_of<HertzDamping>();
+  key.tangential = TangentialLaws::index_of<MindlinRotate>();
+  key.rolling = n.rolling ? RollingLaws::index_of<RollingFriction>() : RollingLaws::index_of<NoRolling>();
+  key.roughness = RoughnessLaws::index_of<NoRoughness>();
+  return key;
 }
 
 // Each slot takes the evaluator the scene needs: the simplest that gives its physics. Throws
 // InvalidArgument for a combination no law offers.
 inline LawKey select(bool hertz, const PairNeeds& n, const Options& o) {
+  if (hertz && n.adhesive) return select_adhesive(n, o);
   if (hertz && n.friction && o.history == HistoryRule::Literal)
     throw InvalidArgument(
         "tangential_history='literal' is offered for the linear law only; Hertzian scenes use 'rotate'");
