@@ -2,6 +2,7 @@
 and tsubu._options.DECLARATIONS): the core's checks, the Python checks, the scene format's JSON
 Schema and the defaults of the C++ structs and Python signatures all agree with it."""
 
+import dataclasses
 import inspect
 import json
 import math
@@ -230,3 +231,56 @@ def test_the_cores_field_docs_are_the_declarations():
         for name in cls.fields:
             doc = getattr(cls, name).__doc__ or ""
             assert doc.startswith(DECLARATIONS[name].doc), (cls.__name__, name, doc)
+
+
+def _words(text):
+    return " ".join(text.split())
+
+
+def test_the_python_api_is_made_from_the_declarations():
+    """tsubu.Material's fields and tsubu.Simulation's keyword arguments are the declared options,
+    in the declarations' order, each with its declared paragraph in the class docstring: a new
+    option needs no Python edit."""
+    assert [f.name for f in dataclasses.fields(tsubu.Material)] == _options.declared("material") + ["name"]
+    assert list(inspect.signature(tsubu.Simulation).parameters) == _options.declared("run")
+    for cls, scope in ((tsubu.Material, "material"), (tsubu.Simulation, "run")):
+        doc = _words(cls.__doc__)
+        for name in _options.declared(scope):
+            d = DECLARATIONS[name]
+            assert d.details, name
+            assert f"{name} : " in doc and _words(d.details) in doc, (cls.__name__, name)
+
+
+def test_a_value_that_needs_a_hertzian_material_is_refused_on_a_linear_one_alike():
+    """The rule is declared (needs_hertzian): the core and Python refuse a value > 0 on a linear
+    material with the declared reason, and accept it on a Hertzian one."""
+    rules = {n: d.needs_hertzian for n, d in DECLARATIONS.items() if d.needs_hertzian}
+    if not rules:
+        pytest.skip("no option declares the rule")
+    for name, why in rules.items():
+        with pytest.raises(ValueError, match=re.escape(f"{name}=0.5 needs youngs_modulus ({why})")):
+            tsubu.Material(**{name: 0.5})
+        tsubu.Material(youngs_modulus=1e9, **{name: 0.5})
+        core = _core.Material(**{name: 0.5})
+        with pytest.raises(ValueError, match=re.escape(f"{name} > 0 needs youngs_modulus ({why})")):
+            _core.validate_material(core)
+        pair = _core.PairParams(kn=1e3, kt=2e2, restitution=0.5, friction=0.5, **{name: 0.5})
+        with pytest.raises(ValueError, match=re.escape(f"pair {name} > 0 needs youngs_modulus")):
+            _core.validate_pair(pair)
+
+
+def test_law_choices_are_bound_and_saved_from_their_declarations():
+    """A run option the laws read (law_choice) is a property of the core's Simulation under its
+    name, listed in _core.choices, checked by its declaration, and kept by the core's
+    checkpoints, with no code of its own outside its law."""
+    choices = [d for d in DECLARATIONS.values() if d.law_choice]
+    if not choices:
+        pytest.skip("no law choice is declared")
+    for d in choices:
+        assert d.kind == "choice" and d.scopes == ("run",)
+        assert tuple(_core.choices[d.name]) == d.choices
+        for value in d.choices:
+            sim = tsubu.Simulation(**{d.name: value})
+            assert getattr(sim._core, d.name) == value
+            back = _core.Simulation.load_bytes(sim._core.save_bytes())
+            assert getattr(back, d.name) == value

@@ -1,11 +1,12 @@
-// What the register_*.cpp files share: numpy conversions and the one table of names for every
-// enum the Python API takes as a string. The bindings convert and forward; python/tsubu checks
-// arguments and names them, the core checks again for C++ callers.
+// What the register_*.cpp files share: numpy conversions and the conversions of every option the
+// Python API takes as a string, from its declaration's names. The bindings convert and forward;
+// python/tsubu checks arguments and names them, the core checks again for C++ callers.
 #pragma once
 #include <array>
 #include <optional>
 #include <string>
 #include <utility>
+#include <vector>
 
 #include <pybind11/numpy.h>
 #include <pybind11/pybind11.h>
@@ -30,66 +31,33 @@ inline void check_n3(const Array& a, std::size_t n, const char* name) {
     throw py::value_error(std::string(name) + " must have shape (" + std::to_string(n) + ", 3)");
 }
 
-// ---- enums as strings: one table each ------------------------------------------------------
-template <class E>
-struct Choices;
-// (the names are declared with the options, option_table.hpp)
-template <>
-struct Choices<tsubu::ScatterDistribution> {
-  static constexpr const char* argument = "roughness_distribution";
-  static constexpr const auto& names = tsubu::kScatterDistributionNames;
-};
-template <>
-struct Choices<tsubu::ShadowRule> {
-  static constexpr const char* argument = "shadow";
-  static constexpr const auto& names = tsubu::kShadowRuleNames;
-};
-template <>
-struct Choices<tsubu::HistoryRule> {
-  static constexpr const char* argument = "tangential_history";
-  static constexpr const auto& names = tsubu::kHistoryRuleNames;
-};
-template <>
-struct Choices<tsubu::SlipRule> {
-  static constexpr const char* argument = "slip_rule";
-  static constexpr const auto& names = tsubu::kSlipRuleNames;
-};
-template <>
-struct Choices<tsubu::AdhesionLaw> {
-  static constexpr const char* argument = "adhesion";
-  static constexpr const auto& names = tsubu::kAdhesionLawNames;
-};
+// ---- choices as strings: the names of each Choice's declaration ----------------------------
+// The core keeps a choice as the index of its name in its declaration (option_table.hpp): an
+// enum with those indices as values, or an int (a law choice).
 
 // "'a', 'b' or 'c'"
-template <class E>
-std::string listing() {
-  const auto& names = Choices<E>::names;
+inline std::string listing(const tsubu::OptionDeclaration& d) {
+  const std::size_t n = tsubu::choice_count(d.choices);
   std::string s;
-  for (std::size_t k = 0; k < names.size(); ++k) {
-    if (k > 0) s += k + 1 == names.size() ? " or " : ", ";
-    s += std::string("'") + names[k].first + "'";
+  for (std::size_t k = 0; k < n; ++k) {
+    if (k > 0) s += k + 1 == n ? " or " : ", ";
+    s += std::string("'") + d.choices[k] + "'";
   }
   return s;
 }
-template <class E>
-E parse(const std::string& name) {
-  for (const auto& [n, e] : Choices<E>::names)
-    if (name == n) return e;
-  throw py::value_error(std::string(Choices<E>::argument) + " must be " + listing<E>() + ", got '" +
-                        name + "'");
+// The index of `name` among d's choices (ValueError naming the option, its choices and `name`).
+inline int parse_choice(const tsubu::OptionDeclaration& d, const std::string& name) {
+  for (std::size_t k = 0; k < tsubu::choice_count(d.choices); ++k)
+    if (name == d.choices[k]) return static_cast<int>(k);
+  throw py::value_error(std::string(d.name) + " must be " + listing(d) + ", got '" + name + "'");
 }
-template <class E>
-const char* name_of(E e) {
-  for (const auto& [n, v] : Choices<E>::names)
-    if (v == e) return n;
-  return "?";
+inline const char* choice_name(const tsubu::OptionDeclaration& d, int k) {
+  return k >= 0 && static_cast<std::size_t>(k) < tsubu::choice_count(d.choices) ? d.choices[k] : "?";
 }
-template <class E>
-py::tuple names() {
-  py::list l;
-  for (const auto& [n, e] : Choices<E>::names) l.append(n);
-  return py::tuple(l);
-}
+// The choices the bindings parse, in the table's order: what _core.choices lists (every Choice
+// bound as a string property registers itself here as it is bound).
+void bound_choice(const tsubu::OptionDeclaration& d);
+py::dict bound_choices();
 
 void register_materials(py::module_& m);
 void register_options(py::module_& m);

@@ -1,5 +1,6 @@
-// The pybind11 module tsubu._core: exception translation, the enum tables, then the classes
-// (register_materials.cpp, register_options.cpp, register_simulation.cpp, register_state.cpp).
+// The pybind11 module tsubu._core: exception translation, the classes (register_materials.cpp,
+// register_options.cpp, register_simulation.cpp, register_state.cpp), then the names of the
+// choices they bind.
 #include "bindings.hpp"
 
 using namespace tsubu_py;
@@ -27,14 +28,6 @@ PYBIND11_MODULE(_core, m) {
     }
   });
 
-  // The accepted names of every string-valued argument, for the Python checks.
-  py::dict choices;
-  choices[Choices<tsubu::ScatterDistribution>::argument] = names<tsubu::ScatterDistribution>();
-  choices[Choices<tsubu::ShadowRule>::argument] = names<tsubu::ShadowRule>();
-  choices[Choices<tsubu::HistoryRule>::argument] = names<tsubu::HistoryRule>();
-  choices[Choices<tsubu::SlipRule>::argument] = names<tsubu::SlipRule>();
-  choices[Choices<tsubu::AdhesionLaw>::argument] = names<tsubu::AdhesionLaw>();
-  m.attr("choices") = choices;
   m.attr("compiled_law_count") = tsubu::compiled_law_count();
   m.def("available_memory", &tsubu::available_memory,
         "Bytes the process can still allocate (MemAvailable, capped by the cgroup's limit).");
@@ -44,4 +37,33 @@ PYBIND11_MODULE(_core, m) {
   register_simulation(sim);
   register_state(sim);
   register_options(m);  // after Simulation: validate_options takes one
+  // The accepted names of every string-valued argument, for the Python checks (those the
+  // registrations above bound).
+  m.attr("choices") = bound_choices();
 }
+
+namespace tsubu_py {
+
+namespace {
+std::vector<const tsubu::OptionDeclaration*>& bound() {
+  static std::vector<const tsubu::OptionDeclaration*> list;
+  return list;
+}
+}  // namespace
+
+void bound_choice(const tsubu::OptionDeclaration& d) { bound().push_back(&d); }
+
+py::dict bound_choices() {
+  py::dict out;
+  for (const auto& d : tsubu::kOptionTable)
+    for (const tsubu::OptionDeclaration* b : bound())
+      if (b == &d) {
+        py::list names;
+        for (std::size_t k = 0; k < tsubu::choice_count(d.choices); ++k) names.append(d.choices[k]);
+        out[d.name] = py::tuple(names);
+        break;
+      }
+  return out;
+}
+
+}  // namespace tsubu_py

@@ -1,7 +1,8 @@
-// tsubu::Material and tsubu::PairParams as Python classes. Each field is bound once, here, and
-// listed in the class's `fields` attribute, which the Python layer reads instead of naming them
-// again.
+// tsubu::Material and tsubu::PairParams as Python classes. Each field is bound from its
+// declaration (option_table.hpp), through the laws' parameter sets (contact/parameters.hpp), and
+// listed in the class's `fields` attribute, which the Python layer reads instead of naming them.
 #include <deque>
+#include <type_traits>
 
 #include "bindings.hpp"
 
@@ -10,9 +11,8 @@ namespace tsubu_py {
 namespace {
 
 // A field's doc: its declaration's (option_table.hpp), with the core's unit and range.
-const char* field_doc(const char* name) {
+const char* field_doc(const tsubu::OptionDeclaration& d) {
   static std::deque<std::string> docs;  // pybind11 keeps the pointer
-  const tsubu::OptionDeclaration& d = tsubu::declaration_of(name);
   const std::string unit = *d.core_unit ? "" : d.unit;  // (declared_range names a core unit)
   std::string doc = d.doc;
   if (!unit.empty()) doc += " [" + unit + "]";
@@ -22,31 +22,25 @@ const char* field_doc(const char* name) {
   return docs.back().c_str();
 }
 
-// The fields a material and a pair share (the laws' parameter sets), on class `cls`.
+// Every field of C (tsubu::Material or tsubu::PairParams), in the order of the declarations
+// (tsubu::for_each_declared_field), on class `cls` and in `fields`: a number, or a choice as its
+// name.
 template <class C>
-void law_fields(py::class_<C>& cls, py::list& fields) {
-  auto number = [&](const char* name, auto member) {
-    cls.def_readwrite(name, member, field_doc(name));
-    fields.append(name);
-  };
-  number("kn", &C::kn);
-  number("kt", &C::kt);
-  number("restitution", &C::restitution);
-  number("friction", &C::friction);
-  number("rolling_friction", &C::rolling_friction);
-  number("tangential_damping", &C::tangential_damping);
-  number("roughness", &C::roughness);
-  number("work_of_adhesion", &C::work_of_adhesion);
-  cls.def_property(
-      "roughness_distribution", [](const C& c) { return name_of(c.roughness_distribution); },
-      [](C& c, const std::string& v) { c.roughness_distribution = parse<tsubu::ScatterDistribution>(v); },
-      field_doc("roughness_distribution"));
-  fields.append("roughness_distribution");
-  cls.def_property(
-      "shadow", [](const C& c) { return name_of(c.shadow); },
-      [](C& c, const std::string& v) { c.shadow = parse<tsubu::ShadowRule>(v); },
-      field_doc("shadow"));
-  fields.append("shadow");
+void declared_fields(py::class_<C>& cls, py::list& fields) {
+  tsubu::for_each_declared_field<C>([&](const tsubu::OptionDeclaration& d, auto member) {
+    using T = tsubu::member_type<decltype(member)>;
+    if constexpr (std::is_enum_v<T>) {
+      const tsubu::OptionDeclaration* decl = &d;
+      cls.def_property(
+          d.name, [member, decl](const C& c) { return choice_name(*decl, static_cast<int>(c.*member)); },
+          [member, decl](C& c, const std::string& v) { c.*member = static_cast<T>(parse_choice(*decl, v)); },
+          field_doc(d));
+      bound_choice(d);
+    } else {
+      cls.def_readwrite(d.name, member, field_doc(d));
+    }
+    fields.append(d.name);
+  });
 }
 
 // C(**fields) and repr. The constructor default-constructs and assigns each keyword through the
@@ -91,13 +85,7 @@ void register_materials(py::module_& m) {
   py::class_<tsubu::Material> material(m, "Material", "One material (SI units, roughness in radians)");
   keywords_and_repr(material, "Material");
   py::list material_fields;
-  for (auto [name, member] : {std::pair{"density", &tsubu::Material::density},
-                              std::pair{"youngs_modulus", &tsubu::Material::youngs_modulus},
-                              std::pair{"poisson_ratio", &tsubu::Material::poisson_ratio}}) {
-    material.def_readwrite(name, member, field_doc(name));
-    material_fields.append(name);
-  }
-  law_fields(material, material_fields);
+  declared_fields(material, material_fields);
   material.attr("fields") = py::tuple(material_fields);
   m.def("hertz_restitution", &tsubu::HertzDamping::restitution, py::arg("factor"), py::arg("clipped"),
         "The restitution of a Hertzian impact with dashpot eta_n = factor sqrt(S_n m*), the normal "
@@ -112,13 +100,7 @@ void register_materials(py::module_& m) {
                                      "The contact parameters of one pair of materials");
   keywords_and_repr(pair, "PairParams");
   py::list pair_fields;
-  pair.def_readwrite("effective_modulus", &tsubu::PairParams::effective_modulus,
-                     field_doc("effective_modulus"));
-  pair_fields.append("effective_modulus");
-  pair.def_readwrite("effective_shear_modulus", &tsubu::PairParams::effective_shear_modulus,
-                     field_doc("effective_shear_modulus"));
-  pair_fields.append("effective_shear_modulus");
-  law_fields(pair, pair_fields);
+  declared_fields(pair, pair_fields);
   pair.attr("fields") = py::tuple(pair_fields);
 }
 

@@ -59,6 +59,13 @@ py::dict declaration(const tsubu::OptionDeclaration& d) {
   out["doc"] = d.doc;
   out["scale"] = d.scale;
   out["core_unit"] = *d.core_unit ? d.core_unit : d.unit;
+  out["checked_for"] = d.checked_for == tsubu::OptionFamily::Linear     ? "linear"
+                       : d.checked_for == tsubu::OptionFamily::Hertzian ? "hertzian"
+                                                                        : "any";
+  out["needs_hertzian"] =
+      *d.needs_hertzian ? py::object(py::str(d.needs_hertzian)) : py::object(py::none());
+  out["law_choice"] = d.law_choice;
+  out["details"] = d.details;
   return out;
 }
 
@@ -74,7 +81,10 @@ void register_options(py::module_& m) {
         "'pair', 'run'), kind ('real', 'integer', 'flag', 'choice', 'vector'), unit, minimum, "
         "maximum (None: unbounded), exclusive_minimum, exclusive_maximum, zero_means (what the "
         "core's 0 means, or None), choices, default, default_text, doc, scale (core value = scale "
-        "x value) and core_unit");
+        "x value), core_unit, checked_for (the materials its range is checked on: 'any', "
+        "'linear', 'hertzian'), needs_hertzian (why a value > 0 needs a Hertzian material, or "
+        "None), law_choice (a run choice the contact laws read) and details (the docstrings' "
+        "paragraph, or '')");
   m.def("validate_material", &tsubu::validate_material, py::arg("material"),
         "The core's check of a Material (ValueError naming the field and the value)");
   m.def("validate_pair", &tsubu::validate_pair, py::arg("pair"),

@@ -14,12 +14,24 @@ void option(py::class_<Sim>& cls, const char* name, T tsubu::Options::*member) {
       name, [member](const Sim& s) { return s.options().*member; },
       [member](Sim& s, T v) { s.options().*member = v; });
 }
-// An enum option, as its name.
+// An enum option, as its name (the names of the option `declared`).
 template <class E>
-void enum_option(py::class_<Sim>& cls, const char* name, E tsubu::Options::*member) {
+void enum_option(py::class_<Sim>& cls, const char* name, const char* declared, E tsubu::Options::*member) {
+  const tsubu::OptionDeclaration* d = &tsubu::declaration_of(declared);
   cls.def_property(
-      name, [member](const Sim& s) { return name_of(s.options().*member); },
-      [member](Sim& s, const std::string& v) { s.options().*member = parse<E>(v); });
+      name, [member, d](const Sim& s) { return choice_name(*d, static_cast<int>(s.options().*member)); },
+      [member, d](Sim& s, const std::string& v) { s.options().*member = static_cast<E>(parse_choice(*d, v)); });
+  bound_choice(*d);
+}
+// Every law choice (Options::law_choices), as its name, under its declared name.
+void law_choices(py::class_<Sim>& cls) {
+  tsubu::for_each_law_choice([&](const tsubu::OptionDeclaration& declared, std::size_t slot) {
+    const tsubu::OptionDeclaration* d = &declared;
+    cls.def_property(
+        d->name, [d, slot](const Sim& s) { return choice_name(*d, s.options().law_choices[slot]); },
+        [d, slot](Sim& s, const std::string& v) { s.options().law_choices[slot] = parse_choice(*d, v); });
+    bound_choice(*d);
+  });
 }
 
 // Python runs signal handlers on its main thread only.
@@ -114,9 +126,9 @@ void register_simulation(py::class_<Sim>& cls) {
   option(cls, "initial_overlap", &tsubu::Options::initial_overlap);
   option(cls, "allow_unstable_dt", &tsubu::Options::allow_unstable_dt);
   option(cls, "rebuild_every_step", &tsubu::Options::rebuild_every_step);
-  enum_option(cls, "history_rule", &tsubu::Options::history);
-  enum_option(cls, "slip_rule", &tsubu::Options::slip);
-  enum_option(cls, "adhesion", &tsubu::Options::adhesion);
+  enum_option(cls, "history_rule", "tangential_history", &tsubu::Options::history);
+  enum_option(cls, "slip_rule", "slip_rule", &tsubu::Options::slip);
+  law_choices(cls);
   option(cls, "repulsive", &tsubu::Options::repulsive);
   option(cls, "impact_speed", &tsubu::Options::impact_speed);
 

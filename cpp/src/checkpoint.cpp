@@ -9,6 +9,7 @@
 #include <type_traits>
 #include <string>
 
+#include "tsubu/option_table.hpp"
 #include "tsubu/simulation.hpp"
 
 namespace tsubu {
@@ -182,65 +183,39 @@ void Simulation::set_contact_state(const ContactState& pairs, const ContactState
 
 namespace {
 
-// The parameters a material and a pair share (the laws' sets), by name: reals, and the two
-// choices as integers.
-template <class C, class F, class G>
-void law_fields(C& c, F&& real, G&& choice) {
-  real("kn", c.kn);
-  real("kt", c.kt);
-  real("restitution", c.restitution);
-  real("friction", c.friction);
-  real("rolling_friction", c.rolling_friction);
-  real("tangential_damping", c.tangential_damping);
-  real("roughness", c.roughness);
-  real("work_of_adhesion", c.work_of_adhesion);
-  choice("roughness_distribution", c.roughness_distribution, 1);
-  choice("shadow", c.shadow, 2);
+// A material's or a pair's fields, by name, in the order of their declarations
+// (for_each_declared_field): reals, and the choices as the indices of their names.
+template <class C>
+void save_fields(archive::Writer& w, const C& c) {
+  for_each_declared_field<C>([&](const OptionDeclaration& d, auto member) {
+    if constexpr (std::is_enum_v<member_type<decltype(member)>>)
+      w.integer(d.name, static_cast<int>(c.*member));
+    else
+      w.real(d.name, c.*member);
+  });
 }
 
 template <class C>
-void save_law_fields(archive::Writer& w, const C& c) {
-  law_fields(c, [&](const char* name, double v) { w.real(name, v); },
-             [&](const char* name, auto v, int) { w.integer(name, static_cast<int>(v)); });
-}
-
-template <class C>
-void restore_law_fields(archive::Reader& r, C& c) {
-  law_fields(c, [&](const char* name, double& v) { v = r.real(name); },
-             [&](const char* name, auto& v, int last) {
-               const std::int64_t k = r.integer(name);
-               if (k < 0 || k > last) r.fail(std::string(name) + ": no choice " + std::to_string(k));
-               v = static_cast<std::remove_reference_t<decltype(v)>>(k);
-             });
+void restore_fields(archive::Reader& r, C& c) {
+  for_each_declared_field<C>([&](const OptionDeclaration& d, auto member) {
+    using T = member_type<decltype(member)>;
+    if constexpr (std::is_enum_v<T>) {
+      const std::int64_t k = r.integer(d.name);
+      if (k < 0 || k >= static_cast<std::int64_t>(choice_count(d.choices)))
+        r.fail(std::string(d.name) + ": no choice " + std::to_string(k));
+      c.*member = static_cast<T>(k);
+    } else {
+      c.*member = r.real(d.name);
+    }
+  });
 }
 
 }  // namespace
 
-void save(archive::Writer& w, const Material& m) {
-  w.real("density", m.density);
-  w.real("youngs_modulus", m.youngs_modulus);
-  w.real("poisson_ratio", m.poisson_ratio);
-  save_law_fields(w, m);
-}
-
-void restore(archive::Reader& r, Material& m) {
-  m.density = r.real("density");
-  m.youngs_modulus = r.real("youngs_modulus");
-  m.poisson_ratio = r.real("poisson_ratio");
-  restore_law_fields(r, m);
-}
-
-void save(archive::Writer& w, const PairParams& p) {
-  w.real("effective_modulus", p.effective_modulus);
-  w.real("effective_shear_modulus", p.effective_shear_modulus);
-  save_law_fields(w, p);
-}
-
-void restore(archive::Reader& r, PairParams& p) {
-  p.effective_modulus = r.real("effective_modulus");
-  p.effective_shear_modulus = r.real("effective_shear_modulus");
-  restore_law_fields(r, p);
-}
+void save(archive::Writer& w, const Material& m) { save_fields(w, m); }
+void restore(archive::Reader& r, Material& m) { restore_fields(r, m); }
+void save(archive::Writer& w, const PairParams& p) { save_fields(w, p); }
+void restore(archive::Reader& r, PairParams& p) { restore_fields(r, p); }
 
 void Simulation::RunState::save(archive::Writer& w) const {
   w.integer("step", step);

@@ -7,6 +7,7 @@
 #include <cstdint>
 #include <limits>
 #include <string>
+#include <type_traits>
 
 #include "check.hpp"
 #include "tsubu/option_table.hpp"
@@ -56,51 +57,39 @@ namespace {
     check_declared(declaration, static_cast<double>(value), prefix);           \
   } while (0)
 
-// The fields a material and a pair share (each law's parameters).
-template <class P>
-void check_law_fields(const P& p, bool hertzian, const char* prefix) {
-  if (!hertzian) {
-    TSUBU_CHECK("kn", p.kn, prefix);
-    TSUBU_CHECK("kt", p.kt, prefix);
-  }
-  TSUBU_CHECK("restitution", p.restitution, prefix);
-  TSUBU_CHECK("friction", p.friction, prefix);
-  TSUBU_CHECK("rolling_friction", p.rolling_friction, prefix);
-  TSUBU_CHECK("tangential_damping", p.tangential_damping, prefix);
-  TSUBU_CHECK("roughness", p.roughness, prefix);
-  TSUBU_CHECK("work_of_adhesion", p.work_of_adhesion, prefix);
-  require(!(p.work_of_adhesion > 0) || hertzian, [&] {
-    return std::string(prefix) +
-           "work_of_adhesion > 0 needs youngs_modulus (adhesion is offered on Hertz's law), got "
-           "work_of_adhesion " + fmt(p.work_of_adhesion) + " for a linear " +
-           (*prefix ? "pair" : "material");
+// Every field of a material or a pair, by its declaration: its range (on the materials of its
+// family), and, for a field that needs a Hertzian material, that rule.
+template <class C>
+void check_fields(const C& c, bool hertzian, const char* prefix) {
+  for_each_declared_field<C>([&](const OptionDeclaration& d, auto member) {
+    if constexpr (std::is_same_v<member_type<decltype(member)>, double>) {
+      if ((d.checked_for == OptionFamily::Linear && hertzian) ||
+          (d.checked_for == OptionFamily::Hertzian && !hertzian))
+        return;
+      const double value = c.*member;
+      check_declared(d, value, prefix);
+      require(!*d.needs_hertzian || !(value > 0) || hertzian, [&] {
+        return std::string(prefix) + d.name + " > 0 needs youngs_modulus (" + d.needs_hertzian +
+               "), got " + d.name + " " + fmt(value) + " for a linear " +
+               (*prefix ? "pair" : "material");
+      });
+    }
   });
   // A cross-option rule: a uniform draw spans +-sqrt(3) sigma, which must stay below 90 degrees.
-  require(p.roughness_distribution != ScatterDistribution::Uniform ||
-              std::sqrt(3.0) * p.roughness < 0.5 * M_PI,
+  require(c.roughness_distribution != ScatterDistribution::Uniform ||
+              std::sqrt(3.0) * c.roughness < 0.5 * M_PI,
           [&] {
             return std::string(prefix) +
                    "roughness with a uniform distribution must be < 90/sqrt(3) degrees, got " +
-                   fmt(p.roughness * 180 / M_PI) + " degrees";
+                   fmt(c.roughness * 180 / M_PI) + " degrees";
           });
 }
 
 }  // namespace
 
-void validate_material(const Material& m) {
-  TSUBU_CHECK("density", m.density, "");
-  TSUBU_CHECK("youngs_modulus", m.youngs_modulus, "");
-  const bool hertzian = m.youngs_modulus > 0;
-  if (hertzian) TSUBU_CHECK("poisson_ratio", m.poisson_ratio, "");
-  check_law_fields(m, hertzian, "");
-}
+void validate_material(const Material& m) { check_fields(m, HertzMaterial::used(m), ""); }
 
-void validate_pair(const PairParams& p) {
-  TSUBU_CHECK("effective_modulus", p.effective_modulus, "pair ");
-  const bool hertzian = HertzParams::used(p);
-  if (hertzian) TSUBU_CHECK("effective_shear_modulus", p.effective_shear_modulus, "pair ");
-  check_law_fields(p, hertzian, "pair ");
-}
+void validate_pair(const PairParams& p) { check_fields(p, HertzParams::used(p), "pair "); }
 
 void validate_options(const Options& o) {
   require(o.gravity.allFinite(), "gravity is not finite");
@@ -113,6 +102,11 @@ void validate_options(const Options& o) {
   TSUBU_CHECK("initial_overlap", o.initial_overlap, "");
   require(!(o.slip == SlipRule::Truncate && o.history == HistoryRule::Literal),
           "the truncate slip rule needs the rotate tangential history");
+  for_each_law_choice([&](const OptionDeclaration& d, std::size_t slot) {
+    const int k = o.law_choices[slot];
+    require(k >= 0 && static_cast<std::size_t>(k) < choice_count(d.choices),
+            [&] { return std::string(d.name) + " is not one of its choices, got " + std::to_string(k); });
+  });
 }
 
 #undef TSUBU_CHECK
@@ -133,7 +127,7 @@ void Options::save(archive::Writer& w) const {
   w.integer("rebuild_every_step", rebuild_every_step);
   w.integer("seed", static_cast<std::int64_t>(seed));  // two's complement: the same 64 bits back
   w.integer("repulsive", repulsive);
-  w.integer("adhesion", static_cast<int>(adhesion));
+  for_each_law_choice([&](const OptionDeclaration& d, std::size_t slot) { w.integer(d.name, law_choices[slot]); });
   w.real("impact_speed", impact_speed);
 }
 
@@ -163,7 +157,9 @@ void Options::restore(archive::Reader& r) {
   rebuild_every_step = flag("rebuild_every_step");
   seed = static_cast<std::uint64_t>(r.integer("seed"));
   repulsive = flag("repulsive");
-  adhesion = static_cast<AdhesionLaw>(in("adhesion", 0, 1));
+  for_each_law_choice([&](const OptionDeclaration& d, std::size_t slot) {
+    law_choices[slot] = static_cast<int>(in(d.name, 0, static_cast<std::int64_t>(choice_count(d.choices)) - 1));
+  });
   impact_speed = r.real("impact_speed");
 }
 

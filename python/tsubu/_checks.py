@@ -212,7 +212,11 @@ def path(name: str, value) -> "Path":
 def warn(message: str, category: type) -> None:
     """warnings.warn pointing at the first caller outside the tsubu package (the user's line)."""
     package = os.path.dirname(os.path.abspath(__file__)) + os.sep
+
+    def ours(filename: str) -> bool:  # (also the constructors _options makes: "<tsubu ...>")
+        return filename.startswith("<tsubu ") or os.path.abspath(filename).startswith(package)
+
     frame, level = sys._getframe(1), 2
-    while frame is not None and os.path.abspath(frame.f_code.co_filename).startswith(package):
+    while frame is not None and ours(frame.f_code.co_filename):
         frame, level = frame.f_back, level + 1
     warnings.warn(message, category, stacklevel=level)

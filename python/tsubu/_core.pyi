@@ -443,7 +443,7 @@ def hertz_restitution(factor: typing.SupportsFloat | typing.SupportsIndex, clipp
     """
 def option_table() -> tuple:
     """
-    Every option's declaration (option_table.hpp), a dict each: name, scopes ('material', 'pair', 'run'), kind ('real', 'integer', 'flag', 'choice', 'vector'), unit, minimum, maximum (None: unbounded), exclusive_minimum, exclusive_maximum, zero_means (what the core's 0 means, or None), choices, default, default_text, doc, scale (core value = scale x value) and core_unit
+    Every option's declaration (option_table.hpp), a dict each: name, scopes ('material', 'pair', 'run'), kind ('real', 'integer', 'flag', 'choice', 'vector'), unit, minimum, maximum (None: unbounded), exclusive_minimum, exclusive_maximum, zero_means (what the core's 0 means, or None), choices, default, default_text, doc, scale (core value = scale x value), core_unit, checked_for (the materials its range is checked on: 'any', 'linear', 'hertzian'), needs_hertzian (why a value > 0 needs a Hertzian material, or None), law_choice (a run choice the contact laws read) and details (the docstrings' paragraph, or '')
     """
 def validate_material(material: Material) -> None:
     """
@@ -457,6 +457,6 @@ def validate_pair(pair: PairParams) -> None:
     """
     The core's check of a PairParams (ValueError naming the field and the value)
     """
-choices: dict = {'roughness_distribution': ('normal', 'uniform'), 'shadow': ('reject', 'weighted', 'none'), 'tangential_history': ('rotate', 'literal'), 'slip_rule': ('frozen', 'truncate'), 'adhesion': ('jkr', 'dmt')}
-compiled_law_count: int = 36
-openmp: bool = True
+choices: dict
+compiled_law_count: int
+openmp: bool

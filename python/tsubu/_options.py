@@ -1,15 +1,23 @@
 """The declarations of every option a user sets (the material fields, the per-pair overrides,
-the run options): name, unit, range, default and a one-line doc, declared once in the core
-(cpp/include/tsubu/option_table.hpp) and read here through ``_core.option_table()``.
+the run options): name, unit, range, default, a one-line doc and the docstrings' paragraph,
+declared once in the core (cpp/include/tsubu/option_table.hpp) and read here through
+``_core.option_table()``.
 
-The Python checks (:func:`check`, used by Material, Simulation and Simulation.set_pair) and the
-scene format's spec (tsubu.scene.spec) are built from these; tests/test_option_declarations.py
-checks that the core and Python accept and refuse the same values.
+The Python checks (:func:`check`, used by Material, Simulation and Simulation.set_pair), the
+fields of tsubu.Material and the keyword arguments of tsubu.Simulation with their docstrings
+(:func:`parameter_entries`, :func:`keyword_function`), and the scene format's spec
+(tsubu.scene.spec) are built from these; tests/test_option_declarations.py checks that the core
+and Python accept and refuse the same values.
 """
 
 from __future__ import annotations
 
+import __future__
 import dataclasses
+import json
+import linecache
+import re
+import textwrap
 
 from . import _checks, _core
 
@@ -21,7 +29,11 @@ class Declaration:
     ``kind`` is "real", "integer", "flag", "choice" or "vector"; ``scopes`` a tuple of
     "material", "pair", "run"; ``minimum``/``maximum`` None where unbounded; ``zero_means``
     what the core's 0 stands for (Python's None), or None; ``scale`` the factor from ``unit`` to
-    the core's ``core_unit``; ``default`` a Choice's first choice, a Vector's None."""
+    the core's ``core_unit``; ``default`` a Choice's first choice, a Vector's None;
+    ``checked_for`` the materials the core checks the range on ("any", "linear", "hertzian");
+    ``needs_hertzian`` why a value > 0 needs a Hertzian material (youngs_modulus), or None;
+    ``law_choice`` whether the contact laws read this run choice; ``details`` the paragraph of
+    the docstrings' Parameters entry (numpy-style RST, unwrapped), or ""."""
 
     name: str
     scopes: tuple
@@ -38,6 +50,10 @@ class Declaration:
     doc: str
     scale: float
     core_unit: str
+    checked_for: str
+    needs_hertzian: str | None
+    law_choice: bool
+    details: str
 
 
 #: Every declared option, by name, in the declaration table's order.
@@ -67,3 +83,92 @@ def check(name: str, value, label: str | None = None):
     if d.kind == "choice":
         return _checks.choice(label, value, d.choices)
     return _checks.vec3(label, value)
+
+
+# ---- docstrings and signatures from the declarations ----------------------------------------
+
+def python_type(name: str) -> str:
+    """The type of option ``name`` as a numpy-style docstring writes it ("float or None",
+    '{"rotate", "literal"}', ...)."""
+    d = DECLARATIONS[name]
+    if d.kind == "choice":
+        return "{" + ", ".join(json.dumps(c) for c in d.choices) + "}"
+    if d.kind == "vector":
+        return "sequence of 3 floats"
+    base = {"real": "float", "integer": "int", "flag": "bool"}[d.kind]
+    return base + " or None" if d.zero_means is not None else base
+
+
+def parameter_entries(names, types: dict | None = None, indent: str = "    ",
+                      width: int = 96) -> str:
+    """The numpy-style Parameters entries ("name : type" and its paragraph, wrapped) of the
+    options ``names``, from their declarations; ``types`` replaces the type of some."""
+    out = []
+    for name in names:
+        d = DECLARATIONS[name]
+        text = d.details
+        if not text:
+            unit = f" [{d.unit}]" if d.unit else ""
+            text = f"{d.doc[:-1]}{unit}. Default {d.default_text}."
+        out.append(f"{indent}{name} : {(types or {}).get(name) or python_type(name)}\n")
+        # (an inline literal, ``...``, is kept on one line)
+        text = re.sub(r"``.+?``", lambda m: m.group().replace(" ", "\0"), text)
+        out.append(textwrap.fill(text, width, initial_indent=indent * 2,
+                                 subsequent_indent=indent * 2, break_long_words=False,
+                                 break_on_hyphens=False).replace("\0", " ") + "\n")
+    return "".join(out)
+
+
+def with_parameters(doc: str, entries: str) -> str:
+    """``doc`` with ``entries`` first in its Parameters section (after the dashes under the
+    header)."""
+    found = re.search(r"^ *Parameters\n *-+\n", doc, re.M)
+    if found is None:
+        raise ValueError("the docstring has no Parameters section")
+    return doc[:found.end()] + entries + doc[found.end():]
+
+
+def _literal(value) -> str:
+    """``value`` as the source code of a default argument (strings in double quotes)."""
+    return json.dumps(value) if isinstance(value, str) else repr(value)
+
+
+def signature_default(name: str):
+    """The default of run option ``name`` in Simulation's signature: None where the core's 0
+    means "not given", a tuple for a vector, else the declared default."""
+    d = DECLARATIONS[name]
+    if d.zero_means is not None:
+        return None
+    if d.kind == "vector":
+        return tuple(float(x) for x in json.loads(d.default_text))
+    return d.default
+
+
+def keyword_function(qualname: str, module: str, names, target):
+    """A function ``(self, <each of names>=<its signature_default>)`` that returns
+    ``target(self, {name: value, ...})``: a constructor whose keyword arguments, their order and
+    defaults are the declarations'. Its source is generated (as dataclasses generate theirs)
+    and kept in linecache, so that inspect.getsource and the API reference show it."""
+    params = []
+    for name in names:
+        d = DECLARATIONS[name]
+        annotation = ("" if d.zero_means is not None or d.kind == "vector" else
+                      ": " + {"real": "float", "integer": "int", "flag": "bool",
+                              "choice": "str"}[d.kind])
+        params.append(f"{name}{annotation}={_literal(signature_default(name))}")
+    *owners, function = qualname.split(".")
+    source = (f"def {function}(self, {', '.join(params)}):\n"
+              f"    return _target(self, {{{', '.join(f'{n!r}: {n}' for n in names)}}})\n")
+    for owner in reversed(owners):  # nested in its class: Python's messages name it so
+        source = f"class {owner}:\n" + textwrap.indent(source, "    ")
+    filename = f"<tsubu declared options: {module}.{qualname}>"
+    code = compile(source, filename, "exec", flags=__future__.annotations.compiler_flag,
+                   dont_inherit=True)
+    namespace = {"_target": target}
+    exec(code, namespace)
+    linecache.cache[filename] = (len(source), None, source.splitlines(True), filename)
+    made = namespace
+    for part in qualname.split("."):
+        made = made[part] if isinstance(made, dict) else vars(made)[part]
+    made.__module__ = module
+    return made

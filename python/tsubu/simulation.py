@@ -9,10 +9,12 @@ import os
 import threading
 import time as _time
 from pathlib import Path
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from . import _checks, _core, _options, hooks
+from ._options import DECLARATIONS
 from .material import Material, _check_field, _check_uniform_range, _from_core, _to_core
 
 
@@ -118,8 +120,23 @@ _COPY_REFUSED = (
     "(request_stop() ends the run), or save() it from a run hook and load() the file")
 
 
+def _declared_options(cls):
+    """``cls`` with the constructor ``__init__(self, <each run option>)``: its keyword arguments,
+    their order and defaults, and their Parameters entries in the class docstring, are the run
+    options' declarations (cpp/include/tsubu/option_table.hpp); it calls ``cls._init(self,
+    {option: value})``."""
+    names = _options.declared("run")
+    cls.__init__ = _options.keyword_function(f"{cls.__qualname__}.__init__", cls.__module__,
+                                             names, cls._init)
+    cls.__doc__ = _options.with_parameters(cls.__doc__, _options.parameter_entries(names))
+    return cls
+
+
+# The constructor's keyword arguments and their Parameters entries come from the run options'
+# declarations (_declared_options).
 @_one_thread_at_a_time("request_stop", "running", "step_count", "time",
                        refused={"__reduce__": _COPY_REFUSED})
+@_declared_options
 class Simulation:
     """Rigid spheres with linear (Kelvin-Voigt) or Hertz-Mindlin contacts, plane walls and gravity.
 
@@ -129,77 +146,6 @@ class Simulation:
 
     Parameters
     ----------
-    gravity : sequence of 3 floats
-        Gravitational acceleration [m/s^2], shape (3,). Default ``(0, 0, -9.81)``.
-    dt : float or None
-        Time step [s]. None: ``default_time_step()`` = t_c / 50, with t_c = pi/alpha (B.3, B.5)
-        the shortest contact duration of the scene, evaluated when a run starts. A dt above
-        ``critical_time_step()`` (2.31) is refused unless ``allow_unstable_dt`` is True.
-    threads : int or None
-        OpenMP threads, 1 to 4096. None: OpenMP's default (all cores). Results are
-        bit-identical for any count. More than twice the threads the machine gives the process
-        (``os.sched_getaffinity``), and more than 4, issue a :class:`PerformanceWarning`: each
-        thread beyond the cores waits at every barrier of every step (on 2 cores, 64 threads
-        ran 9x slower than 1, and 4096 threads 2600x).
-    parallel_min : int
-        Scenes with fewer spheres than this run on one thread, whatever ``threads`` says: there
-        a parallel region costs more than it saves (and on a machine whose cores are busy with
-        other work, waiting at its barriers can cost far more). Default 2048; 0 always uses
-        ``threads``.
-    seed : int
-        Seed of the roughness draws (0 <= seed < 2^64). Default 0. A run is reproducible for a
-        given seed whatever the thread count; another seed gives another run.
-    skin : float or None
-        Neighbour-list skin [m]. None: 0.2 x the mean diameter. The list is rebuilt when a
-        particle has moved more than skin/2 (or a moving wall could reach a new particle). A
-        run whose skin is beyond the largest diameter and whose list holds more than 64 pairs
-        per sphere (and over 100,000 in all) issues a :class:`PerformanceWarning`.
-    tangential_history : {"rotate", "literal"}
-        How the stored tangential displacement follows the contact. "rotate" (default): kept as
-        a vector, rotated into the current tangent plane each step with its length preserved,
-        then incremented by v_t dt (as LAMMPS, LIGGGHTS). "literal": the notes' eq. (1.14),
-        which re-aims the whole accumulated length along the current v_t; offered for
-        comparison (docs/physics.md).
-    hertz_force : {"signed", "repulsive"}
-        The normal force of Hertzian materials. "signed" (default): the dashpot of the beta
-        form (EDEM, LIGGGHTS, DEM-Engine, LAMMPS's tsuji damping), which gives the requested
-        restitution at every impact speed and lets the force pull at the end of an
-        impact. "repulsive": the force is clipped at zero (it never pulls) and the dashpot is
-        raised so that the restitution is still the one requested (docs/physics.md).
-    impact_speed : float or None
-        The normal impact speed [m/s] at which a Hertzian scene's contact duration, default dt
-        and stability bound are evaluated (Hertzian contacts stiffen with speed). None: twice
-        the largest sphere speed (two spheres meeting head on), at least 1 m/s, measured when
-        asked before the first run and fixed by the first run (until spheres are added), so
-        that the default dt stays the same from one run to the next.
-    adhesion : {"jkr", "dmt"}
-        The adhesive normal law of a scene whose materials have a ``work_of_adhesion`` > 0
-        (unused otherwise). "jkr" (default): Johnson-Kendall-Roberts, a neck that holds the
-        contact to a negative overlap; "dmt": Derjaguin-Muller-Toporov, Hertz's force less a
-        constant pull while in contact (docs/physics.md). Adhesion is not offered with
-        roughness, ``hertz_force="repulsive"``, ``slip_rule="truncate"`` or
-        ``tangential_history="literal"`` (the first run raises ValueError).
-    slip_rule : {"frozen", "truncate"}
-        What a slipping contact does. "frozen" (default): the notes' (1.17)-(1.18), force
-        ``mu abs(f_n)`` against the slip velocity, stored displacement kept. "truncate": LAMMPS's
-        gran/hooke/history and the shared reference scene's: the spring force is scaled to
-        ``mu abs(f_n)`` in its own direction and the displacement truncated to match (needs
-        tangential_history="rotate"); use it to compare with those codes digit for digit.
-    max_overlap : float
-        A run stops with :class:`InstabilityError` when an overlap exceeds this fraction of the
-        smaller radius, > 0. Default 0.5.
-    initial_overlap : float
-        The first run refuses (ValueError) initial overlaps larger than this fraction of the
-        smaller radius, >= 0. Default 0.05. Later runs refuse those that spheres added or moved
-        (:meth:`add_spheres`, :attr:`positions`), or walls added, since the last run made
-        (an overlap the change did not deepen, as when a pack is moved as a whole, stays
-        accepted); the spheres of inserters (:meth:`add_inserter`) are placed clear by them.
-    allow_unstable_dt : bool
-        Run even if dt exceeds the stability bound (the instability check still applies).
-        Default False.
-    rebuild_every_step : bool
-        Rebuild the neighbour list every step (a testing aid; results are identical). Default
-        False.
 
     Raises
     ------
@@ -237,12 +183,12 @@ class Simulation:
     (RuntimeError): copy it between runs, or from a run hook.
     """
 
-    def __init__(self, gravity=(0.0, 0.0, -9.81), dt=None, threads=None, seed: int = 0,
-                 skin=None, tangential_history: str = "rotate", slip_rule: str = "frozen",
-                 hertz_force: str = "signed", adhesion: str = "jkr", impact_speed=None,
-                 max_overlap: float = 0.5,
-                 initial_overlap: float = 0.05, allow_unstable_dt: bool = False,
-                 rebuild_every_step: bool = False, parallel_min: int = 2048):
+    if TYPE_CHECKING:  # (type checkers do not see the made constructor: any keyword)
+        def __init__(self, *args: Any, **options: Any) -> None: ...
+
+    def _init(self, options: dict) -> None:
+        """The constructor (``__init__``, made by _declared_options, passes its arguments as
+        ``options``)."""
         self._lock = threading.RLock()  # _one_thread_at_a_time
         self._running = False  # True while the engine runs (and the GIL is released)
         self._in_run = False  # True from the start of run to its return (hooks act meanwhile)
@@ -253,29 +199,27 @@ class Simulation:
         #: :meth:`load`; scene runs keep their scene there, for ``tsubu resume``.
         self.metadata: dict = {}
         self._material_index: dict[int, int] = {}
-        self.gravity = gravity
-        self.dt = dt
-        self.threads = threads
-        # Each option's check follows its declaration (option_table.hpp, tsubu._options).
-        self._core.parallel_min = _options.check("parallel_min", parallel_min)
-        self._core.seed = _options.check("seed", seed)
-        if skin is not None:
-            self._core.skin_option = _options.check("skin", skin)
-        self._core.history_rule = _options.check("tangential_history", tangential_history)
-        _options.check("slip_rule", slip_rule)
-        if slip_rule == "truncate" and tangential_history != "rotate":
-            raise ValueError("slip_rule='truncate' needs tangential_history='rotate', got "
-                             f"{tangential_history!r}")
-        self._core.slip_rule = slip_rule
-        self._core.repulsive = _options.check("hertz_force", hertz_force) == "repulsive"
-        self._core.adhesion = _options.check("adhesion", adhesion)
-        if impact_speed is not None:
-            self._core.impact_speed = _options.check("impact_speed", impact_speed)
         self._scene_materials: list[Material] = []
-        self._core.max_overlap = _options.check("max_overlap", max_overlap)
-        self._core.initial_overlap = _options.check("initial_overlap", initial_overlap)
-        self._core.allow_unstable_dt = _options.check("allow_unstable_dt", allow_unstable_dt)
-        self._core.rebuild_every_step = _options.check("rebuild_every_step", rebuild_every_step)
+        # Each option's check follows its declaration (option_table.hpp, tsubu._options), in the
+        # declarations' order (but parallel_min's, which comes right after threads').
+        for name in sorted(options, key=_RUN_OPTIONS.index):
+            self._set_option(name, options[name])
+
+    def _set_option(self, name: str, value) -> None:
+        """Check the constructor's run option ``name`` and set it in the core."""
+        if name in ("gravity", "dt", "threads"):  # (assignable properties, which check)
+            setattr(self, name, value)
+            return
+        if value is None and DECLARATIONS[name].zero_means is not None:
+            return  # the core's 0: its default
+        value = _options.check(name, value)
+        if name == "slip_rule" and value == "truncate" and self._core.history_rule != "rotate":
+            raise ValueError("slip_rule='truncate' needs tangential_history='rotate', got "
+                             f"{self._core.history_rule!r}")
+        if name == "hertz_force":
+            self._core.repulsive = value == "repulsive"
+        else:
+            setattr(self._core, _CORE_PROPERTY.get(name, name), value)
 
     # ---- options ---------------------------------------------------------------------------
     @property
@@ -373,12 +317,11 @@ class Simulation:
         material_a, material_b : Material
             The two materials (equal for the contacts of one material with itself).
         **overrides
-            Any of ``kn``, ``kt``, ``restitution``, ``friction``, ``rolling_friction``,
-            ``tangential_damping``, ``roughness`` (degrees), ``work_of_adhesion``,
-            ``roughness_distribution``, ``shadow``, with the meaning, units and ranges of
-            :class:`Material`, and, for two Hertzian materials, ``effective_modulus`` (E* [Pa],
-            > 0) and ``effective_shear_modulus`` (G* [Pa], >= 0). Those not given keep their
-            mixed value (see :meth:`pair_parameters`).
+            Any parameter of :class:`Material` but ``density``, ``youngs_modulus`` and
+            ``poisson_ratio``, with its meaning, units and range (``roughness`` in degrees),
+            and, for two Hertzian materials, ``effective_modulus`` (E* [Pa], > 0) and
+            ``effective_shear_modulus`` (G* [Pa], >= 0). Those not given keep their mixed value
+            (see :meth:`pair_parameters`).
 
         Raises
         ------
@@ -1108,8 +1051,8 @@ class Simulation:
             - ``i``: sphere id, int64, shape (M,);
             - ``j``: partner sphere id (-1 for a wall), int64, shape (M,);
             - ``wall``: wall index (-1 for a pair of spheres), int, shape (M,);
-            - ``overlap``: overlap [m], shape (M,) (negative for a JKR contact held by its
-              adhesive neck, docs/physics.md);
+            - ``overlap``: overlap [m], shape (M,) (negative for a contact that a sticky
+              normal law holds beyond zero overlap, docs/physics.md);
             - ``force``: contact force on i [N], shape (M, 3) (the partner gets -force);
             - ``torque_i``: torque on i from this contact [N m], shape (M, 3);
             - ``tangential_displacement``: the stored tangential history [m], shape (M, 3)
@@ -1282,6 +1225,14 @@ def _warn_threads(threads: int) -> None:
 SKIN_PAIRS_PER_SPHERE = 64
 # ... and more than this many in all (a smaller list, some 10 MB, costs little whatever its skin).
 SKIN_PAIRS_FLOOR = 100_000
+
+# The _core.Simulation property that stores a run option, where it is not the option's name
+# (hertz_force: the bool `repulsive`).
+_CORE_PROPERTY = {"skin": "skin_option", "tangential_history": "history_rule"}
+# The order in which the constructor checks and sets its options: the declarations', but
+# parallel_min's, which comes right after threads' (as it always has).
+_RUN_OPTIONS = [name for name in _options.declared("run") if name != "parallel_min"]
+_RUN_OPTIONS.insert(_RUN_OPTIONS.index("threads") + 1, "parallel_min")
 
 
 def _steps_for(duration: float, dt: float) -> int:

@@ -19,6 +19,7 @@
 #include "contact/roughness.hpp"
 #include "contact/tangential.hpp"
 #include "material.hpp"
+#include "type_list.hpp"
 
 namespace tsubu {
 
@@ -26,36 +27,25 @@ namespace detail {
 struct World;
 }
 
-template <class... T>
-struct TypeList {
-  static constexpr std::size_t size = sizeof...(T);
-  template <std::size_t I>
-  using at = std::tuple_element_t<I, std::tuple<T...>>;
-  // The position of U in the list.
-  template <class U>
-  static constexpr std::size_t index_of() {
-    std::size_t i = 0, found = size;
-    ((std::is_same_v<U, T> ? (found = i, ++i) : ++i), ...);
-    return found;
-  }
-};
-
 // The evaluators each slot can hold (contact/*.hpp).
 using NormalLaws = TypeList<HookeNormal, HertzNormal, JkrNormal, DmtNormal>;
 using DampingLaws = TypeList<RestitutionDamping, HertzDamping>;
 using TangentialLaws = TypeList<NoTangential, TangentialRotate, TangentialLiteral,
                                 TangentialRotateTruncate, MindlinRotate, MindlinRotateTruncate>;
 using RollingLaws = TypeList<NoRolling, RollingFriction>;
-// The adhesive normal laws, in the order of the options' AdhesionLaw (jkr, dmt): a scene whose
-// Hertzian materials have a work of adhesion takes one (contact/selection.hpp).
+// The adhesive normal laws, in the order of the run option adhesion's choices (jkr, dmt,
+// option_table.hpp): a scene whose Hertzian materials have a work of adhesion takes one
+// (contact/selection.hpp).
 struct AdhesiveNormalLaws {
   using List = TypeList<JkrNormal, DmtNormal>;
   static constexpr std::size_t size = List::size;
-  // Index k of this list as an index into NormalLaws.
+  // Index k of this list as an index into NormalLaws (NormalLaws::size for none).
   static std::size_t index(std::size_t k) {
-    constexpr std::size_t at[] = {NormalLaws::index_of<List::at<0>>(), NormalLaws::index_of<List::at<1>>()};
-    static_assert(List::size == 2);
-    return k < size ? at[k] : NormalLaws::size;
+    std::size_t at = NormalLaws::size, i = 0;
+    List::for_each([&](auto* law) {
+      if (i++ == k) at = NormalLaws::index_of<std::remove_pointer_t<decltype(law)>>();
+    });
+    return at;
   }
 };
 using RoughnessLaws = TypeList<NoRoughness, StochasticRoughness>;

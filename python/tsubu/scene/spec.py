@@ -142,10 +142,10 @@ def _build_spec() -> Table:
                              default="0.02 (tsubu's t_c/50)"),
         "seed": _option("seed"),
         "threads": _option("threads", "OpenMP threads (`tsubu run --threads` overrides it)."),
-        **{name: _option(name) for name in ("parallel_min", "skin", "tangential_history", "slip_rule",
-                                            "hertz_force", "adhesion", "impact_speed", "max_overlap",
-                                            "initial_overlap", "allow_unstable_dt",
-                                            "rebuild_every_step")},
+        "parallel_min": _option("parallel_min"),
+        # every other run option, as declared, in the declarations' order
+        **{name: _option(name) for name in declared("run")
+           if name not in ("gravity", "dt", "seed", "threads", "parallel_min")},
     }, doc="The simulation's options (tsubu.Simulation) and how long to run.",
         exclusive=(("dt", "dt_fraction"),), name="simulation")
 

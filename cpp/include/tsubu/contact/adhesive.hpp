@@ -25,8 +25,13 @@ namespace tsubu {
 // gamma_ij; with Berthelot's gamma_ij = gamma_i + gamma_j - 2 sqrt(gamma_i gamma_j) for
 // dispersive surfaces it is 2 sqrt(gamma_i gamma_j) = sqrt(w_i w_j).) A pair with one
 // non-adhesive surface has w = 0.
+//
+// The parameter set (contact/parameters.hpp) of both laws: a material's w and a pair's.
 struct AdhesionParams {
   double work_of_adhesion = 0;  // w, J/m^2; 0: no adhesion
+
+  template <class V>
+  static constexpr void fields(V&& visit) { visit("work_of_adhesion", &AdhesionParams::work_of_adhesion); }
 
   template <class M>
   static void mix(const M& a, const M& b, AdhesionParams& p) {

@@ -16,12 +16,22 @@ namespace tsubu {
 // eta_n = -2 ln e sqrt(m k / (pi^2 + ln^2 e)).
 struct RestitutionDamping {
   static constexpr const char* name = "restitution";
+  // Its parameter set (contact/parameters.hpp): a material's restitution; a pair's, mixed, and
+  // the factor finalise() derives from it.
   struct Properties {
     double restitution = 1;  // normal coefficient of restitution, (0, 1]
+
+    template <class V>
+    static constexpr void fields(V&& visit) { visit("restitution", &Properties::restitution); }
   };
   struct Params : Properties {
     // (B.9) as eta_n = damping_factor sqrt(m_eff k_n): a contact then needs one square root.
     double damping_factor = 0;
+
+    template <class M>
+    static void mix(const M& a, const M& b, Params& p) { RestitutionDamping::mix(a, b, p); }
+    template <class P>
+    static void finalise(P& p) { RestitutionDamping::finalise(p); }
   };
 
   template <class M>
@@ -52,10 +62,19 @@ struct RestitutionDamping {
 // self-similar: its restitution does not depend on the impact speed (docs/physics.md).
 struct HertzDamping {
   static constexpr const char* name = "hertz-beta";
+  // Its parameter set (contact/parameters.hpp): nothing a material sets (the restitution is
+  // RestitutionDamping's); a pair's factor, derived by finalise() for a Hertzian pair.
   struct Params {
     // 2 sqrt(5/6) |beta| (for a force that may pull), or the value that gives restitution e
     // when F_n is clipped at zero (hertz_repulsive_factor); from finalise().
     double hertz_damping_factor = 0;
+
+    template <class M>
+    static void mix(const M& a, const M& b, Params& p) { HertzDamping::mix(a, b, p); }
+    template <class P>
+    static void finalise(P& p) {
+      if (HertzParams::used(p)) HertzDamping::finalise(p);
+    }
   };
 
   template <class M>

@@ -39,15 +39,19 @@ struct ContactScale {
 struct HookeNormal {
   static constexpr const char* name = "hooke";
   static constexpr bool kSticky = false;  // touches while delta > 0
+  // Its parameter set (contact/parameters.hpp): a material's and a pair's k_n.
   struct Params {
     double kn = 0;  // N/m
+
+    template <class V>
+    static constexpr void fields(V&& visit) { visit("kn", &Params::kn); }
+    // Two half-springs in series: the harmonic mean, so that equal materials keep their value.
+    template <class M>
+    static void mix(const M& a, const M& b, Params& p) {
+      p.kn = 2.0 * a.kn * b.kn / (a.kn + b.kn);
+    }
   };
 
-  // Two half-springs in series: the harmonic mean, so that equal materials keep their value.
-  template <class M>
-  static void mix(const M& a, const M& b, Params& p) {
-    p.kn = 2.0 * a.kn * b.kn / (a.kn + b.kn);
-  }
   // The parameter a lane reads: k_n. No per-entry term.
   static constexpr int kLaneParams = 1, kEntryTerms = 0;
   static void pack(const Params& p, double* q) { q[0] = p.kn; }
@@ -79,6 +83,21 @@ struct HookeNormal {
 // Hertz's elastic sphere: F_n = (4/3) E* sqrt(R*) delta^(3/2) (Johnson 1985, eq. 4.22), with the
 // per-pair E* of two materials (Johnson eq. 4.23). Its tangent stiffness S_n = 2 E* a,
 // a = sqrt(R* delta), is what the damping and the Mindlin spring scale with.
+//
+// Its parameter set (contact/parameters.hpp): a material's E and nu (HertzMaterial), a pair's
+// E* and G* (HertzParams).
+struct HertzMaterial {
+  double youngs_modulus = 0;   // E, Pa; 0: a linear (kn, kt) material
+  double poisson_ratio = 0.3;  // nu, in (-1, 0.5]
+
+  template <class V>
+  static constexpr void fields(V&& visit) {
+    visit("youngs_modulus", &HertzMaterial::youngs_modulus);
+    visit("poisson_ratio", &HertzMaterial::poisson_ratio);
+  }
+  static bool used(const HertzMaterial& m) { return m.youngs_modulus > 0; }
+};
+
 struct HertzParams {
   double effective_modulus = 0;        // E*, Pa; 0: the pair is not Hertzian
   double effective_shear_modulus = 0;  // G*, Pa (Mindlin's k_t = 8 G* a)
@@ -101,6 +120,11 @@ struct HertzParams {
         1.0 / ((2.0 - a.poisson_ratio) / shear(a) + (2.0 - b.poisson_ratio) / shear(b));
   }
   static bool used(const HertzParams& p) { return p.effective_modulus > 0; }
+  template <class V>
+  static constexpr void fields(V&& visit) {
+    visit("effective_modulus", &HertzParams::effective_modulus);
+    visit("effective_shear_modulus", &HertzParams::effective_shear_modulus);
+  }
 };
 
 struct HertzNormal {

@@ -7,8 +7,12 @@
 
 namespace tsubu {
 
+// The parameter set (contact/parameters.hpp) of the rolling laws: a material's and a pair's.
 struct RollingParams {
   double rolling_friction = 0;  // mu_r of (1.20), dimensionless
+
+  template <class V>
+  static constexpr void fields(V&& visit) { visit("rolling_friction", &RollingParams::rolling_friction); }
 
   template <class M>
   static void mix(const M& a, const M& b, RollingParams& p) {

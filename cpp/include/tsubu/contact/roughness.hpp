@@ -14,15 +14,24 @@
 
 namespace tsubu {
 
-// Distribution of the roughness scatter angle dG (docs/roughness.md).
+// Distribution of the roughness scatter angle dG (docs/roughness.md). (The values of a choice
+// are the indices of its names in the option's declaration, option_table.hpp.)
 enum class ScatterDistribution { Normal = 0, Uniform = 1 };
 // Shadow effect at walls: which tilts a sphere can meet (docs/roughness.md).
 enum class ShadowRule { Reject = 0, Weighted = 1, None = 2 };
 
+// The parameter set (contact/parameters.hpp) of the roughness laws: a material's and a pair's.
 struct RoughnessParams {
   double roughness = 0;  // standard deviation of the scatter angle dG, radians
   ScatterDistribution roughness_distribution = ScatterDistribution::Normal;
   ShadowRule shadow = ShadowRule::Reject;
+
+  template <class V>
+  static constexpr void fields(V&& visit) {
+    visit("roughness", &RoughnessParams::roughness);
+    visit("roughness_distribution", &RoughnessParams::roughness_distribution);
+    visit("shadow", &RoughnessParams::shadow);
+  }
 
   // The scatter of two independent surfaces adds in quadrature; the distribution and shadow
   // rule are those of the rougher material.

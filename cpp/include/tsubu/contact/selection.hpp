@@ -8,6 +8,7 @@
 #include <string>
 
 #include "../material.hpp"
+#include "../option_table.hpp"
 #include "../options.hpp"
 #include "../registry.hpp"
 
@@ -50,8 +51,12 @@ inline PairNeeds needs(const PairParams& p, bool hertz) {
 }
 
 // A Hertzian scene with a work of adhesion takes its adhesive core (registry.hpp), the normal
-// law Options::adhesion names, with the Hertzian dashpot and Mindlin's frozen-slip spring (mu = 0
-// gives no tangential force). Throws InvalidArgument for what adhesion is not offered with.
+// law the run option adhesion names (a law choice, option_table.hpp), with the Hertzian dashpot
+// and Mindlin's frozen-slip spring (mu = 0 gives no tangential force). Throws InvalidArgument
+// for what adhesion is not offered with.
+inline constexpr std::size_t kAdhesionChoice = law_choice_slot("adhesion");
+static_assert(choice_count(option_declaration("adhesion").choices) == AdhesiveNormalLaws::size,
+              "one adhesive normal law per choice of the adhesion option");
 inline LawKey select_adhesive(const PairNeeds& n, const Options& o) {
   if (n.rough) throw InvalidArgument("roughness is not offered with adhesion (work_of_adhesion > 0)");
   if (o.repulsive)
@@ -61,7 +66,7 @@ inline LawKey select_adhesive(const PairNeeds& n, const Options& o) {
     throw InvalidArgument("adhesive scenes (work_of_adhesion > 0) use slip_rule='frozen' and "
                           "tangential_history='rotate'");
   LawKey key;
-  key.normal = AdhesiveNormalLaws::index(static_cast<std::size_t>(o.adhesion));
+  key.normal = AdhesiveNormalLaws::index(static_cast<std::size_t>(o.law_choices[kAdhesionChoice]));
   key.damping = DampingLaws::index_of<HertzDamping>();
   key.tangential = TangentialLaws::index_of<MindlinRotate>();
   key.rolling = n.rolling ? RollingLaws::index_of<RollingFriction>() : RollingLaws::index_of<NoRolling>();

@@ -11,10 +11,18 @@ namespace tsubu {
 
 // The parameters of the tangential spring-dashpot with the Coulomb cap, and their mixing rule:
 // stiffnesses as two half-springs in series (harmonic mean), the coefficients geometric means.
+// The parameter set (contact/parameters.hpp) of every tangential law: a material's and a pair's.
 struct FrictionParams {
   double kt = 0;                  // tangential stiffness, N/m
   double friction = 0;            // Coulomb mu (1.17)
   double tangential_damping = 0;  // eta_t / eta_n (1.11)
+
+  template <class V>
+  static constexpr void fields(V&& visit) {
+    visit("kt", &FrictionParams::kt);
+    visit("friction", &FrictionParams::friction);
+    visit("tangential_damping", &FrictionParams::tangential_damping);
+  }
 
   template <class M>
   static void mix(const M& a, const M& b, FrictionParams& p) {
