@@ -27,6 +27,10 @@ from hypothesis import strategies as st  # noqa: E402
 
 import tsubu  # noqa: E402
 
+# Thread counts and skins drawn here may exceed what the machine or the list should take: the
+# PerformanceWarning they earn is tests/test_limits.py's subject, not a fuzzing failure.
+pytestmark = pytest.mark.filterwarnings("ignore::tsubu.PerformanceWarning")
+
 _QUIET = [HealthCheck.too_slow, HealthCheck.data_too_large, HealthCheck.filter_too_much]
 settings.register_profile("ci", max_examples=100, deadline=None, derandomize=True, database=None,
                           suppress_health_check=_QUIET, print_blob=True)
