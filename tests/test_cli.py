@@ -210,12 +210,16 @@ def test_resume_refuses_a_checkpoint_without_a_scene(tmp_path, capsys):
     assert "was not written by a scene run" in capsys.readouterr().err
 
 
-def test_run_then_resume_continues_to_the_end(tmp_path, capsys):
-    needs_checkpoints()
+def _scene_run_to_its_checkpoint(tmp_path):
     path = copy_scene(tmp_path)
     path.write_text(path.read_text() + "\n[checkpoint]\npath = \"run.tsubu\"\n")
     assert main(["run", str(path), "--no-progress"]) == 0
-    checkpoint = tmp_path / "output" / "run.tsubu"
+    return tmp_path / "output" / "run.tsubu"
+
+
+def test_run_then_resume_continues_to_the_end(tmp_path, capsys):
+    needs_checkpoints()
+    checkpoint = _scene_run_to_its_checkpoint(tmp_path)
     end = tsubu.Simulation.load(checkpoint)
     assert abs(end.time - 0.002) < end.dt
     # resume with --time: 1 ms more, then --until 0.0025
@@ -226,13 +230,6 @@ def test_run_then_resume_continues_to_the_end(tmp_path, capsys):
     assert abs(tsubu.Simulation.load(checkpoint).time - 0.003) < end.dt
     assert "tsubu resume" in capsys.readouterr().out
     # (--until before the checkpoint's time is refused: test_resume_until_in_the_past_is_refused)
-
-
-def _scene_run_to_its_checkpoint(tmp_path):
-    path = copy_scene(tmp_path)
-    path.write_text(path.read_text() + "\n[checkpoint]\npath = \"run.tsubu\"\n")
-    assert main(["run", str(path), "--no-progress"]) == 0
-    return tmp_path / "output" / "run.tsubu"
 
 
 def test_a_scene_run_until_a_time_already_past_is_refused(tmp_path, capsys):
@@ -268,10 +265,7 @@ def test_resume_refuses_what_the_library_refuses_in_one_line(tmp_path, capsys):
     """tsubu resume as tsubu run: a checkpoint whose scene cannot start, or an output directory
     that cannot be written, ends in one line and exit 2 (issue 26)."""
     needs_checkpoints()
-    path = copy_scene(tmp_path)
-    path.write_text(path.read_text() + "\n[checkpoint]\npath = \"run.tsubu\"\n")
-    assert main(["run", str(path), "--no-progress"]) == 0
-    checkpoint = tmp_path / "output" / "run.tsubu"
+    checkpoint = _scene_run_to_its_checkpoint(tmp_path)
     sim = tsubu.Simulation.load(checkpoint)
     sim.dt = 1e-3  # above the stability bound: refused when the run starts
     sim.save(tmp_path / "bad dt.tsubu")
