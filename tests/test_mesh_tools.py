@@ -178,6 +178,18 @@ def test_read_mesh_reads_obj_keeping_its_numbering_and_splitting_quads(needs_tri
     assert sorted(set(f[:2].reshape(-1).tolist())) == [0, 1, 2, 3]
 
 
+def test_read_mesh_merges_equal_vertices_of_an_obj_file_too(needs_trimesh, tmp_path):
+    # Two squares' triangles that repeat the shared corners as rows of their own (and one as
+    # -0.0): merged, numbered in the order they first appear, so the squares are neighbours.
+    (tmp_path / "split.obj").write_text("v 0 0 0\nv 1 0 0\nv 1 1 0\n"
+                                        "v 1 0 0\nv 2 0 0\nv 1 1 -0.0\n"
+                                        "f 1 2 3\nf 4 5 6\n")
+    v, f = mesh.read_mesh(tmp_path / "split.obj")
+    assert v.tolist() == [[0, 0, 0], [1, 0, 0], [1, 1, 0], [2, 0, 0]]
+    assert f.tolist() == [[0, 1, 2], [1, 3, 2]]
+    assert edge_uses(f)[(1, 2)] == 2
+
+
 def test_read_mesh_scales_the_coordinates(needs_trimesh, tmp_path):
     vertices, faces = mesh.box((0, 0, 0), (10, 20, 30))  # "millimetres"
     mesh.write_stl(tmp_path / "mm.stl", vertices, faces, binary=False)

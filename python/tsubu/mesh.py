@@ -193,15 +193,21 @@ def _merge_vertices(vertices: np.ndarray, faces: np.ndarray) -> tuple[np.ndarray
     others' rows removed), the faces renumbered, their order kept."""
     if vertices.shape[0] == 0:
         return vertices, faces
-    _, first, inverse = np.unique(vertices, axis=0, return_index=True, return_inverse=True)
-    inverse = inverse.reshape(-1)
-    # Keep the vertices in the order of their first occurrence (a file without duplicates keeps
+    # Sorted by coordinates (lexsort is stable: within a group of equal rows, by row number).
+    order = np.lexsort((vertices[:, 2], vertices[:, 1], vertices[:, 0]))
+    ordered = vertices[order]
+    starts = np.ones(order.size, dtype=bool)
+    starts[1:] = np.any(ordered[1:] != ordered[:-1], axis=1)  # (-0.0 equals 0.0; NaN no row)
+    group = np.cumsum(starts) - 1
+    first = order[starts]  # each group's first row in the file
+    # Number the groups in the order of their first occurrence (a file without duplicates keeps
     # its numbering).
-    order = np.argsort(first, kind="stable")
-    rank = np.empty_like(order)
-    rank[order] = np.arange(order.size)
-    return (np.ascontiguousarray(vertices[first[order]]),
-            np.ascontiguousarray(rank[inverse][faces], dtype=np.int64))
+    rank = np.empty(first.size, dtype=np.int64)
+    rank[np.argsort(first, kind="stable")] = np.arange(first.size)
+    new_index = np.empty(order.size, dtype=np.int64)
+    new_index[order] = rank[group]
+    return (np.ascontiguousarray(vertices[np.sort(first)]),
+            np.ascontiguousarray(new_index[faces], dtype=np.int64))
 
 
 def read_mesh(path, scale: float = 1.0) -> tuple[np.ndarray, np.ndarray]:
@@ -220,7 +226,9 @@ def read_mesh(path, scale: float = 1.0) -> tuple[np.ndarray, np.ndarray]:
     vertices : numpy.ndarray, float64, shape (V, 3)
         The coordinates [m] times ``scale``; vertices with exactly equal coordinates merged into
         one (STL stores each triangle's three corners separately; mesh walls see triangles as
-        neighbours only through shared vertices), numbered in the order of their first use.
+        neighbours only through shared vertices), numbered in the order in which they first appear
+        in the file (STL: the order of first use by the triangles; an OBJ file without
+        duplicate vertices keeps its numbering).
     faces : numpy.ndarray, int64, shape (F, 3)
         The triangles in the file's order (polygons of an OBJ file split into triangles), each
         with the vertex order of the file (its orientation; STL's stored normals are ignored).
