@@ -207,9 +207,11 @@ void Mesh::advance(double dt, const Vec3& velocity, const Vec3& angular_velocity
   center_ += dt * velocity;
   const double angle = angular_velocity.norm() * dt;
   if (angle > 0) {
-    orientation_ = Eigen::Quaterniond(Eigen::AngleAxisd(angle, angular_velocity.normalized())) * orientation_;
-    orientation_.normalize();
-    rotation_ = orientation_.toRotationMatrix();
+    Eigen::Quaterniond q(orientation_[0], orientation_[1], orientation_[2], orientation_[3]);
+    q = Eigen::Quaterniond(Eigen::AngleAxisd(angle, angular_velocity.normalized())) * q;
+    q.normalize();
+    orientation_ = {q.w(), q.x(), q.y(), q.z()};
+    rotation_ = q.toRotationMatrix();
   }
 }
 
@@ -220,8 +222,9 @@ void Mesh::set_center(const Vec3& c) {
   center_ = c;
 }
 
-double Mesh::shift_since(const Vec3& c0, const Eigen::Quaterniond& q0, double reach) const {
-  return (center_ - c0).norm() + (rotation_ - q0.toRotationMatrix()).norm() * reach;
+double Mesh::shift_since(const Vec3& c0, const Orientation& q0, double reach) const {
+  const Eigen::Quaterniond q(q0[0], q0[1], q0[2], q0[3]);
+  return (center_ - c0).norm() + (rotation_ - q.toRotationMatrix()).norm() * reach;
 }
 
 std::size_t Mesh::bytes() const {
@@ -241,8 +244,7 @@ void Mesh::save(archive::Writer& w) const {
   w.integers("faces", f);
   w.vec3("center0", center0_);
   w.vec3("center", center_);
-  const double q[4] = {orientation_.w(), orientation_.x(), orientation_.y(), orientation_.z()};
-  w.reals("orientation", q, 4);
+  w.reals("orientation", orientation_.data(), 4);
   w.integer("moved", moved_ ? 1 : 0);
 }
 
@@ -265,10 +267,11 @@ Mesh Mesh::restore(archive::Reader& r) {
   Mesh m(std::move(vertices), std::move(faces), r.vec3("center0"));
   m.center_ = r.vec3("center");
   const std::vector<double> q = r.reals("orientation", 4);
-  m.orientation_ = Eigen::Quaterniond(q[0], q[1], q[2], q[3]);
-  m.rotation_ = m.orientation_.toRotationMatrix();
+  const Eigen::Quaterniond quat(q[0], q[1], q[2], q[3]);
+  m.orientation_ = {q[0], q[1], q[2], q[3]};
+  m.rotation_ = quat.toRotationMatrix();
   m.moved_ = r.integer("moved") != 0;
-  if (!m.center_.allFinite() || !m.center0_.allFinite() || std::abs(m.orientation_.norm() - 1) > 1e-9)
+  if (!m.center_.allFinite() || !m.center0_.allFinite() || !(std::abs(quat.norm() - 1) <= 1e-9))
     r.fail("a mesh's pose is not finite or not a rotation");
   return m;
 }

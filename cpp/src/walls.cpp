@@ -77,11 +77,14 @@ void Walls::measure(const Vec3& x, double r, const Index* wall, const Index* ele
     any = any || live[std::size_t(k)];
   }
   if (!any) return;
-  // Hide what a smooth surface does not have: ask each touching triangle whether another
-  // touching triangle of the same mesh covers its nearest feature.
+  // Hide what a smooth surface does not have. An edge or vertex is a contact only where it is
+  // the nearest point of every touching triangle that holds it (a convex edge or corner); where
+  // one of them has a nearer point of its own (its face, another edge), the sphere presses that
+  // instead. Of the triangles that share one nearest edge or vertex, the first keeps it; of two
+  // coplanar neighbours that both see their face (the centre over their shared edge), the first.
   for (int k = 0; k < n; ++k) {
     if (!live[std::size_t(k)]) continue;
-    const Index ek = entries[k], w = wall[ek], tk = element[ek];
+    const Index ek = entries[k], w = wall[ek];
     const Mesh& mesh = meshes_[std::size_t(slot_[std::size_t(w)])];
     const MeshFeature& f = feature[std::size_t(k)];
     bool hidden = false;
@@ -89,18 +92,11 @@ void Walls::measure(const Vec3& x, double r, const Index* wall, const Index* ele
       if (j == k || !live[std::size_t(j)] || wall[entries[j]] != w) continue;
       const Index tj = element[entries[j]];
       const MeshFeature& g = feature[std::size_t(j)];
-      switch (f.kind) {
-        case MeshFeature::kFace:  // the same plane, seen from two triangles on their shared edge
-          hidden = g.kind == MeshFeature::kFace && j < k && mesh.adjacent(tj, tk) &&
-                   tangent[entries[j]].normal.dot(tangent[ek].normal) > 1 - 1e-12;
-          break;
-        case MeshFeature::kEdge:
-          hidden = (g.kind == MeshFeature::kFace && mesh.has(tj, f)) || (g == f && j < k);
-          break;
-        default:
-          hidden = (g.kind == MeshFeature::kFace && mesh.has(tj, f)) ||
-                   (g.kind == MeshFeature::kEdge && (g.a == f.a || g.b == f.a)) || (g == f && j < k);
-      }
+      if (f.kind == MeshFeature::kFace)
+        hidden = g.kind == MeshFeature::kFace && j < k && mesh.adjacent(tj, element[ek]) &&
+                 tangent[entries[j]].normal.dot(tangent[ek].normal) > 1 - 1e-12;
+      else
+        hidden = mesh.has(tj, f) && (!(g == f) || j < k);
     }
     if (hidden) tangent[ek].point = x - (2 * r + 1) * tangent[ek].normal;  // clear of the sphere
   }
@@ -116,7 +112,7 @@ void Walls::mark(const Vec3& lo, const Vec3& hi) {
     point_ref_[w] = planes_[w].point;
     normal_ref_[w] = planes_[w].normal;
     orientation_ref_[w] = kind_[w] == kMesh ? meshes_[std::size_t(slot_[w])].orientation()
-                                            : Eigen::Quaterniond::Identity();
+                                            : Mesh::Orientation{1, 0, 0, 0};
     for (int corner = 0; corner < 8; ++corner) {
       const Vec3 c((corner & 1) ? hi.x() : lo.x(), (corner & 2) ? hi.y() : lo.y(),
                    (corner & 4) ? hi.z() : lo.z());
@@ -139,7 +135,7 @@ bool Walls::moved_beyond(double moved, double skin) const {
 
 std::size_t Walls::bytes() const {
   std::size_t b = planes_.capacity() * sizeof(Plane) + (point_ref_.capacity() + normal_ref_.capacity()) * sizeof(Vec3) +
-                  orientation_ref_.capacity() * sizeof(Eigen::Quaterniond) +
+                  orientation_ref_.capacity() * sizeof(Mesh::Orientation) +
                   (kind_.capacity() + removed_.capacity()) + slot_.capacity() * sizeof(int);
   for (const Mesh& m : meshes_) b += m.bytes();
   return b;

@@ -21,6 +21,7 @@ struct MeshContacts {
   // A contact hands its state over only to a triangle whose normal turned by less than this
   // (cos 60 degrees): a sphere rolling over a ridge, not one that jumps to another face.
   static constexpr double kHandOver = 0.5;
+  static constexpr double kSamePlane = 1 - 1e-6;
 
   // The near-wall positions [lo, hi) of the list (whole spheres).
   static void measure(const ContactView& c, Index lo, Index hi) {
@@ -49,9 +50,9 @@ struct MeshContacts {
       for (Index b = lo; b < hi; ++b) {
         const Index o = c.wnear[b];
         if (o == e || c.wall[o] != w || !c.wtouch[o] || c.tangent[o].overlap(x, r) > stopped) continue;
-        if (!mesh.adjacent(c.welement[o], c.welement[e])) continue;
         const double turn = c.tangent[o].normal.dot(c.tangent[e].normal);
-        if (turn > best) best = turn, from = o;
+        // (a triangle that shares no vertex, on the same plane: a step across a sliver)
+        if (turn > best && (turn > kSamePlane || mesh.adjacent(c.welement[o], c.welement[e]))) best = turn, from = o;
       }
       if (from >= 0) move(c, from, e);
     }

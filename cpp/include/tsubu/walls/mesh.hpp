@@ -86,8 +86,11 @@ class Mesh {
   void set_center(const Vec3& c);
   // How far any point of the body within `reach` of the reference centre can have moved since
   // the pose (c0, q0).
-  double shift_since(const Vec3& c0, const Eigen::Quaterniond& q0, double reach) const;
-  const Eigen::Quaterniond& orientation() const { return orientation_; }
+  // (Orientations are kept as plain (w, x, y, z): an Eigen quaternion's alignment differs
+  // between translation units built for different instruction sets.)
+  using Orientation = std::array<double, 4>;
+  double shift_since(const Vec3& c0, const Orientation& q0, double reach) const;
+  const Orientation& orientation() const { return orientation_; }
 
   std::size_t bytes() const;
   void save(archive::Writer& w) const;
@@ -107,7 +110,7 @@ class Mesh {
   std::vector<Vec3> normal_;   // unit face normals, body frame
   std::vector<Index> canon_;   // canonical vertex of each vertex
   Vec3 center0_ = Vec3::Zero(), center_ = Vec3::Zero();
-  Eigen::Quaterniond orientation_ = Eigen::Quaterniond::Identity();
+  Orientation orientation_{1, 0, 0, 0};
   Eigen::Matrix3d rotation_ = Eigen::Matrix3d::Identity();
   bool moved_ = false;  // false: body frame = world frame, bit for bit
   // Bins: cells of edge h from lo (body frame), keyed (z, y, x); the occupied ones sorted by key,

@@ -113,7 +113,7 @@ class Walls {
   // The rebuild criterion's reference: each plane at the last mark() (a mesh: its centre and
   // orientation), and the largest distance from a wall's point to the particles' box then.
   std::vector<Vec3> point_ref_, normal_ref_;
-  std::vector<Eigen::Quaterniond> orientation_ref_;
+  std::vector<Mesh::Orientation> orientation_ref_;
   double reach_ = 0;
 };
 
