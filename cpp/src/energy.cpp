@@ -192,6 +192,7 @@ std::vector<ContactInfo> Simulation::contacts() const {
     return width > 3 && !xi.empty() ? xi[width * e + 3] : 0.0;
   };
   const double* r = particles_.arrays().radius.data();
+  measure_walls_now();
   for (std::size_t i = 0; i < particles_.size(); ++i) {
     for (Index e = lists_.near_offset[i]; e < lists_.near_offset[i + 1]; ++e) {
       if (!touching(law, contacts_.pairs.overlap[e])) continue;
@@ -206,6 +207,9 @@ std::vector<ContactInfo> Simulation::contacts() const {
       out.push_back({particles_.arrays().id[i], -1, lists_.wall_index[e], lists_.wall_element[e], contacts_.walls.overlap[e], vec3(contacts_.walls.force.data(), e),
                      torque(contacts_.walls.nxft, contacts_.walls.roll, particles_.arrays().radius[i], contacts_.walls.overlap[e], e),
                      history(contacts_.walls.xi, e), r[i], size(contacts_.walls.xi, e)});
+      const Plane& P = wall_plane_now(e);
+      const Vec3 x = vec3(particles_.arrays().x.data(), i);
+      out.back().wall_point = x - P.distance(x) * P.normal;
     }
   }
   std::sort(out.begin(), out.end(), [](const ContactInfo& a, const ContactInfo& b) {

@@ -90,7 +90,8 @@ def contact_data(sim, contacts: dict | None = None, positions=None) -> dict:
 
     Keys: ``i``, ``j`` (-1 for a wall), ``wall`` (-1 for a pair) (M,) int64; ``overlap`` [m]
     (M,); ``start``, ``end`` [m] (M, 3): the centre of sphere i and that of sphere j, or for a
-    wall contact the point of the plane nearest the centre of i; ``normal`` (M, 3): the unit
+    wall contact the point of the wall nearest the centre of i (a mesh's: of the contact's
+    triangle; with ``positions`` given, planes only); ``normal`` (M, 3): the unit
     vector from ``start`` to ``end`` (the centre-to-centre direction; a rough contact's tilted
     normal is not shown separately); ``force`` [N] (M, 3): the contact's force on sphere i;
     ``normal_force`` [N] (M,): -F.n, positive when the contact pushes the spheres apart;
@@ -111,11 +112,14 @@ def contact_data(sim, contacts: dict | None = None, positions=None) -> dict:
     end = x[np.maximum(j, 0)]
     walls = np.flatnonzero(j < 0)
     if walls.size:
-        planes = [sim.plane(k) for k in range(sim.plane_count)]
-        point = np.array([p["point"] for p in planes])[wall[walls]]
-        normal = np.array([p["normal"] for p in planes])[wall[walls]]
-        height = np.einsum("ij,ij->i", start[walls] - point, normal)
-        end[walls] = start[walls] - height[:, None] * normal
+        if positions is None and "wall_point" in contacts:  # (a mesh's: its nearest triangle)
+            end[walls] = np.asarray(contacts["wall_point"], dtype=np.float64).reshape(-1, 3)[walls]
+        else:
+            planes = [sim.wall(k) for k in range(sim.wall_count)]
+            point = np.array([p.get("point", p["center"]) for p in planes])[wall[walls]]
+            normal = np.array([p.get("normal", (0.0, 0.0, 1.0)) for p in planes])[wall[walls]]
+            height = np.einsum("ij,ij->i", start[walls] - point, normal)
+            end[walls] = start[walls] - height[:, None] * normal
     gap = end - start
     length = np.sqrt(np.einsum("ij,ij->i", gap, gap))
     # Two centres at one point have no direction: their normal is left zero, never NaN.

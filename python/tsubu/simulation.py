@@ -1221,7 +1221,11 @@ class Simulation:
             - ``force``: contact force on i [N], shape (M, 3) (the partner gets -force);
             - ``torque_i``: torque on i from this contact [N m], shape (M, 3);
             - ``tangential_displacement``: the stored tangential history [m], shape (M, 3)
-              (zero without friction).
+              (zero without friction);
+            - ``element``: a wall contact's element (a mesh's triangle, the row of its
+              ``faces``; 0 for a plane; -1 for a pair), int, shape (M,);
+            - ``wall_point``: a wall contact's point of the wall nearest the centre of i now
+              (on the plane, or on the triangle) [m], shape (M, 3) (zero for a pair).
         """
         return self._core.contacts()
 

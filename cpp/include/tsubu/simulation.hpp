@@ -55,6 +55,7 @@ struct ContactInfo {
   Vec3 tangential_displacement;  // stored history xi, m (zero without friction)
   double reduced_radius;  // R* = r_i r_j / (r_i + r_j); a wall: r_i
   double contact_radius;  // a = sqrt(R* delta) as the Mindlin history keeps it; 0 otherwise
+  Vec3 wall_point = Vec3::Zero();  // a wall contact: the point of the wall nearest i's centre now
 };
 
 class Simulation : private detail::RunHooks {
