@@ -131,6 +131,13 @@ void register_simulation(py::class_<Sim>& cls) {
            "center"_a)
       .def("remove_wall", &Sim::remove_wall, "wall"_a)
       .def(
+          "set_wall_servo",
+          [](Sim& s, int wall, std::array<double, 3> direction, double force, double gain, double max_speed) {
+            s.set_wall_servo(wall, to_vec3(direction), force, gain, max_speed);
+          },
+          "wall"_a, "direction"_a, "force"_a, "gain"_a, "max_speed"_a)
+      .def("clear_wall_servo", &Sim::clear_wall_servo, "wall"_a)
+      .def(
           "wall",
           [](const Sim& s, int wall) {
             const tsubu::Plane& p = s.plane(wall);
@@ -138,6 +145,10 @@ void register_simulation(py::class_<Sim>& cls) {
             py::dict d("kind"_a = mesh ? "mesh" : "plane", "center"_a = from_vec3(p.center),
                        "velocity"_a = from_vec3(p.velocity), "angular_velocity"_a = from_vec3(p.angular_velocity),
                        "material"_a = p.material, "removed"_a = s.walls().removed(wall));
+            const tsubu::Walls::Servo& servo = s.walls().servo(wall);
+            if (servo.on)
+              d["servo"] = py::dict("direction"_a = from_vec3(servo.direction), "force"_a = servo.force,
+                                    "gain"_a = servo.gain, "max_speed"_a = servo.max_speed);
             if (!mesh) {
               d["point"] = from_vec3(p.point);
               d["normal"] = from_vec3(p.normal);

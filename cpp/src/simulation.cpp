@@ -261,6 +261,43 @@ void Simulation::set_wall_center(int wall, const Vec3& center) {
   lists_.valid = false;
 }
 
+void Simulation::set_wall_servo(int wall, const Vec3& direction, double force, double gain, double max_speed) {
+  require(wall >= 0 && wall < plane_count(), "no wall " + std::to_string(wall));
+  require(direction.allFinite() && direction.norm() > 0, "servo direction must be a non-zero finite vector");
+  require(std::isfinite(force) && force >= 0, "servo force must be finite and >= 0, got " + fmt(force));
+  require(std::isfinite(gain) && gain > 0, "servo gain must be finite and > 0, got " + fmt(gain));
+  require(std::isfinite(max_speed) && max_speed > 0 && max_speed <= kMaxWallSpeed,
+          "servo max_speed must be > 0 and at most the speed of light, got " + fmt(max_speed));
+  energy_ref_valid_ = false;
+  walls_.set_servo(wall, Walls::Servo{direction.normalized(), force, gain, max_speed, true});
+  walls_.set_motion(wall, Vec3::Zero(), Vec3::Zero());
+  lists_.valid = false;
+}
+
+void Simulation::clear_wall_servo(int wall) {
+  require(wall >= 0 && wall < plane_count(), "no wall " + std::to_string(wall));
+  walls_.set_servo(wall, Walls::Servo{});
+  walls_.set_motion(wall, Vec3::Zero(), walls_.plane(wall).angular_velocity);
+  lists_.valid = false;
+}
+
+void Simulation::steer_walls() {
+  // The force each servo wall's contacts put on the spheres: its near entries in list order
+  // (the same for any thread count).
+  const std::size_t nw = static_cast<std::size_t>(walls_.count());
+  servo_push_.assign(nw, 0.0);
+  for (Index e : lists_.wall_near) {
+    const std::size_t w = std::size_t(lists_.wall_index[std::size_t(e)]);
+    if (walls_.servo(int(w)).on) servo_push_[w] += vec3(contacts_.walls.force.data(), e).dot(walls_.servo(int(w)).direction);
+  }
+  for (std::size_t w = 0; w < nw; ++w) {
+    const Walls::Servo& s = walls_.servo(int(w));
+    if (!s.on || walls_.removed(int(w))) continue;
+    const double speed = std::clamp(s.gain * (s.force - servo_push_[w]), -s.max_speed, s.max_speed);
+    walls_.set_motion(int(w), speed * s.direction, Vec3::Zero());
+  }
+}
+
 void Simulation::remove_wall(int wall) {
   require(wall >= 0 && wall < plane_count(), "no wall " + std::to_string(wall));
   energy_ref_valid_ = false;

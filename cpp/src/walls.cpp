@@ -12,6 +12,7 @@ int Walls::append(const Plane& p, Kind kind, int slot) {
   kind_.push_back(kind);
   removed_.push_back(0);
   slot_.push_back(slot);
+  servo_.emplace_back();
   return count() - 1;
 }
 
@@ -41,9 +42,17 @@ void Walls::set_center(int wall, const Vec3& center) {
   }
 }
 
+void Walls::set_servo(int wall, const Servo& s) { servo_[static_cast<std::size_t>(wall)] = s; }
+
+bool Walls::servoed() const {
+  for (std::size_t w = 0; w < planes_.size(); ++w)
+    if (!removed_[w] && servo_[w].on) return true;
+  return false;
+}
+
 bool Walls::moving() const {
   for (std::size_t w = 0; w < planes_.size(); ++w)
-    if (!removed_[w] && planes_[w].moving()) return true;
+    if (!removed_[w] && (planes_[w].moving() || servo_[w].on)) return true;
   return false;
 }
 
@@ -164,6 +173,14 @@ void Walls::save(archive::Writer& w) const {
   w.reals("center", center);
   w.integers("kind", kind);
   w.integers("removed", removed);
+  std::vector<double> servo;
+  std::vector<std::int64_t> servo_on;
+  for (const Servo& s : servo_) {
+    servo.insert(servo.end(), {s.direction.x(), s.direction.y(), s.direction.z(), s.force, s.gain, s.max_speed});
+    servo_on.push_back(s.on ? 1 : 0);
+  }
+  w.reals("servo", servo);
+  w.integers("servo_on", servo_on);
   for (std::size_t k = 0; k < n; ++k) {
     if (kind_[k] != kMesh) continue;
     archive::Writer m;
@@ -211,6 +228,18 @@ void Walls::restore(archive::Reader& r, int materials) {
       r.fail("wall " + std::to_string(k) + " is of no known kind");
     }
     removed_.back() = removed[k] != 0;
+  }
+  if (r.next_is("servo")) {
+    const std::vector<double> servo = r.reals("servo", 6 * n);
+    const std::vector<std::int64_t> on = r.integers("servo_on", n);
+    for (std::size_t k = 0; k < n; ++k) {
+      Servo& s = servo_[k];
+      s.direction = Vec3(servo[6 * k], servo[6 * k + 1], servo[6 * k + 2]);
+      s.force = servo[6 * k + 3], s.gain = servo[6 * k + 4], s.max_speed = servo[6 * k + 5];
+      s.on = on[k] != 0;
+      if (!s.direction.allFinite() || !std::isfinite(s.force) || !std::isfinite(s.gain) || !std::isfinite(s.max_speed))
+        r.fail("wall " + std::to_string(k) + ": a servo with non-finite settings");
+    }
   }
 }
 

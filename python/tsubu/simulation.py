@@ -657,6 +657,60 @@ class Simulation:
         self.wall(wall)
         self._core.remove_wall(wall)
 
+    def set_wall_servo(self, wall: int, force: float, max_speed: float, direction=None,
+                       gain: float | None = None) -> None:
+        """Drive a wall by a target force: a servo wall (confined compression at a set load).
+
+        Every step, after the contact forces, the wall's velocity becomes
+        ``direction * gain * (force - F)``, at most ``max_speed`` in magnitude, where F is the
+        force its contacts put on the spheres along ``direction`` (its push). The wall so moves
+        towards the spheres while it pushes less than ``force`` and backs off while it pushes
+        more; it does not turn. The control is proportional, on the wall's velocity (the wall
+        has no mass): the load settles with the time constant 1 / (gain k), k the stiffness the
+        pack offers the wall [N/m]; an explicit step stays stable while gain k dt < 1, which the
+        default gain keeps for packs up to k = force / (max_speed dt).
+
+        Parameters
+        ----------
+        wall : int
+            The wall (a plane or a mesh).
+        force : float
+            The target push [N], >= 0.
+        max_speed : float
+            The largest speed [m/s] the wall moves at (> 0): its approach speed when free.
+        direction : array_like, shape (3,), optional
+            The direction it pushes along (any length; normalised). Default a plane's normal
+            (towards the spheres); required for a mesh.
+        gain : float, optional
+            [m/(N s)], > 0. Default ``max_speed / force`` (the wall slows linearly as it
+            loads), or 1e-3 max_speed when ``force`` is 0.
+
+        Raises
+        ------
+        ValueError
+            For a wall that does not exist, a mesh without ``direction``, a zero direction, a
+            negative force, or a gain or max_speed that is not positive and finite.
+        """
+        state = self.wall(wall)
+        force = _checks.positive("force", force, allow_zero=True)
+        max_speed = _checks.positive("max_speed", max_speed)
+        if max_speed > MAX_WALL_SPEED:
+            raise ValueError(f"max_speed must be at most the speed of light, {MAX_WALL_SPEED:g} m/s, got {max_speed!r}")
+        if direction is None:
+            if state["kind"] != "plane":
+                raise ValueError(f"set_wall_servo: wall {wall} is a mesh: give its direction")
+            direction = state["normal"]
+        d = _unit("direction", direction)
+        if gain is None:
+            gain = max_speed / force if force > 0 else 1e-3 * max_speed
+        gain = _checks.positive("gain", gain)
+        self._core.set_wall_servo(wall, d, force, float(gain), max_speed)
+
+    def clear_wall_servo(self, wall: int) -> None:
+        """Stop driving a wall by force (:meth:`set_wall_servo`); it stands still."""
+        self.wall(wall)
+        self._core.clear_wall_servo(wall)
+
     @property
     def wall_count(self) -> int:
         """Number of walls, planes and meshes (indices 0 to wall_count - 1, removed ones too)."""
@@ -671,7 +725,8 @@ class Simulation:
             ``kind`` ("plane" or "mesh"), ``center`` [m], ``velocity`` [m/s],
             ``angular_velocity`` [rad/s], ``material`` (the :class:`Material`), ``removed``
             (bool); a plane also ``point`` [m] and ``normal``; a mesh also ``vertices`` (V, 3)
-            [m], where it is now, and ``faces`` (F, 3). Arrays are read-only copies.
+            [m], where it is now, and ``faces`` (F, 3); a servo wall also ``servo`` (a dict:
+            ``direction``, ``force``, ``gain``, ``max_speed``). Arrays are read-only copies.
 
         Raises
         ------
@@ -689,7 +744,7 @@ class Simulation:
         for k, v in d.items():
             if k == "material":
                 out[k] = self._materials_by_index(v)
-            elif k in ("kind", "removed"):
+            elif k in ("kind", "removed", "servo"):
                 out[k] = v
             else:
                 out[k] = _read_only(np.array(v))

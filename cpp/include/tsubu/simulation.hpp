@@ -107,6 +107,13 @@ class Simulation : private detail::RunHooks {
   // Takes a wall out: from the next run on it touches nothing; its contacts end (their energy
   // leaves with them); other walls keep their indices.
   void remove_wall(int wall);
+  // Drives a wall by a target force (a servo wall, Walls::Servo): each step its velocity is
+  // direction * gain * (force - F), at most max_speed, F the force its contacts put on the
+  // spheres along direction (unit after normalising). A servo wall does not turn. Throws
+  // InvalidArgument for a zero or non-finite direction, a negative or non-finite force, gain or
+  // max_speed (max_speed also at most kMaxWallSpeed).
+  void set_wall_servo(int wall, const Vec3& direction, double force, double gain, double max_speed);
+  void clear_wall_servo(int wall);
   const Walls& walls() const { return walls_; }
   // The force each wall receives from the spheres (minus the sum of its contacts' forces on
   // them) and its torque about the wall's centre, as the last step evaluated them: row w for
@@ -343,6 +350,7 @@ class Simulation : private detail::RunHooks {
   // moving, gravity or pair parameters changed), so that chunked runs are checked as one.
   void start_audit(bool walls_move) override;
   void audit() override { check_energy(energy_ref_); }
+  void steer_walls() override;
   [[noreturn]] void report_overlap(double dt) const override;
   [[noreturn]] void report_nonfinite() const override;
   [[noreturn]] void report_nonfinite_velocity() const override;
@@ -395,6 +403,7 @@ class Simulation : private detail::RunHooks {
   Walls walls_;
   // With meshes: every near-wall entry's plane at the current positions (wall_planes_now()).
   mutable std::vector<Plane> wall_planes_;
+  std::vector<double> servo_push_;  // steer_walls' scratch
   mutable std::vector<Index> wall_entries_;
   // The plane each near-wall entry's contact is on now, by entry (a plane wall's own, a mesh
   // contact's tangent plane, hidden ones clear of the sphere: Walls::measure).

@@ -73,7 +73,10 @@ struct Stepper {
       run.last_move = std::sqrt(vmax2) * dt;  // the distance any particle moved: dt max|v|
       lists.book_moved(run.last_move);
       if (nonfinite) s.hooks.report_nonfinite_velocity();
-      if (moving) s.walls.advance(dt);
+      if (moving) {
+        if (s.walls.servoed()) s.hooks.steer_walls();
+        s.walls.advance(dt);
+      }
       s.domain.wrap(s.particles.arrays().x.data(), s.particles.size());
       ++run.step;
       run.time += dt;

@@ -68,6 +68,8 @@ class RunHooks {
   // The energy audit: a run starts (with fixed or moving walls), a check is due.
   virtual void start_audit(bool walls_move) = 0;
   virtual void audit() = 0;
+  // Sets the velocity of each servo wall from the force its contacts just put on it.
+  virtual void steer_walls() = 0;
   // Raise InstabilityError naming the step and the particle.
   [[noreturn]] virtual void report_overlap(double dt) const = 0;
   [[noreturn]] virtual void report_nonfinite() const = 0;

@@ -52,6 +52,18 @@ class Walls {
   void save(archive::Writer& w) const;
   void restore(archive::Reader& r, int materials);
 
+  // A servo wall moves along `direction` (unit) at gain (force - F) [m/s], at most max_speed,
+  // where F is the force its contacts put on the spheres along `direction` (a confining wall
+  // at a set load). Set each step by Simulation::steer_walls.
+  struct Servo {
+    Vec3 direction = Vec3::Zero();
+    double force = 0, gain = 0, max_speed = 0;
+    bool on = false;
+  };
+  void set_servo(int wall, const Servo& s);
+  const Servo& servo(int wall) const { return servo_[static_cast<std::size_t>(wall)]; }
+  bool servoed() const;
+
   // Whether any wall moves (the contact pass then takes the wall's velocity at the contact).
   bool moving() const;
   // One step of every wall's motion.
@@ -110,6 +122,7 @@ class Walls {
   std::vector<std::uint8_t> kind_, removed_;
   std::vector<int> slot_;  // a mesh wall's index in meshes_ (-1: a plane)
   std::vector<Mesh> meshes_;
+  std::vector<Servo> servo_;
   // The rebuild criterion's reference: each plane at the last mark() (a mesh: its centre and
   // orientation), and the largest distance from a wall's point to the particles' box then.
   std::vector<Vec3> point_ref_, normal_ref_;
