@@ -88,7 +88,7 @@ inline double uniform_open(std::uint32_t bits) { return (double(bits) + 0.5) * 0
 struct ContactStream {
   std::uint64_t seed;
   std::uint64_t owner;    // particle id
-  std::uint64_t partner;  // particle id, or kWallTag + wall index
+  std::uint64_t partner;  // particle id, or kWallTag + wall index + (triangle << 32)
   std::uint64_t step;     // step of first touch
   static constexpr std::uint64_t kWallTag = 0xFFFF0000u;
 

@@ -219,8 +219,10 @@ struct Contacts {
       if (params.roughness > 0) {
         Vec3 vw = vec3(c.v, i);
         if (c.moving) vw -= P.velocity_at(Wall::contact_point(xi_pos, ri, n));
+        // (a mesh's triangle in the high bits: a plane's element is 0)
         const ContactStream stream{c.seed, std::uint64_t(c.ids[i]),
-                                   ContactStream::kWallTag + std::uint64_t(c.wall[e]), c.step};
+                                   ContactStream::kWallTag + std::uint64_t(c.wall[e]) + (std::uint64_t(c.welement[e]) << 32),
+                                   c.step};
         Rough<Law>::wall(params, P, xi_pos, ri, vw, ContactScale{c.m[i], ri, c.speed}, c.wtouch[e],
                          c.wrough + F::kRoughWidth * e, stream, dt, n, delta);
       }
