@@ -286,7 +286,7 @@ def _build_spec() -> Table:
     }, doc="A per-pair override of the mixed contact parameters (Simulation.set_pair).", name="pairs")
 
     wall = Table({
-        "point": Field(Vector(unit="m"), "A point of the plane (and, without center, the centre of its rotation).",
+        "point": Field(Vector(unit="m"), "A point of the plane (and the centre of its rotation).",
                        required=True, unit="m"),
         "normal": Field(Vector(nonzero=True), "Normal, pointing to the side where spheres live.",
                         required=True),
@@ -294,7 +294,7 @@ def _build_spec() -> Table:
         "velocity": Field(Vector(unit="m/s"), "Translation velocity.", default="[0, 0, 0]", unit="m/s"),
         "angular_velocity": Field(Vector(unit="rad/s"), "Angular velocity about center.",
                                   default="[0, 0, 0]", unit="rad/s"),
-        "center": Field(Vector(unit="m"), "Centre of rotation (planes and meshes that share a centre "
+        "center": Field(Vector(unit="m"), "Centre of rotation, instead of point (planes and meshes that share a centre "
                                           "and a motion turn as one body).", default="point", unit="m"),
         **_wall_extras("plane"),
     }, doc="An infinite plane wall (Simulation.add_plane).", name="walls")
