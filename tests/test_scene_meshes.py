@@ -299,3 +299,15 @@ def mesh_scene(mesh):
 def test_bad_meshes_are_refused_naming_the_key(mesh, message, tmp_path):
     lines = errors(mesh_scene(mesh), tmp_path)
     assert len(lines) == 1 and lines[0].startswith(message)
+
+
+@pytest.mark.parametrize("name, text, message", [
+    ("hopper.ply", "ply\n", 'meshes[0].file = "hopper.ply": is neither an STL nor an OBJ file'),
+    ("hopper.stl", "garbage\n", 'meshes[0].file = "hopper.stl": holds no triangle'),
+])
+def test_a_mesh_file_that_is_not_a_mesh_is_refused_at_its_key(name, text, message, tmp_path):
+    if name.endswith(".stl"):
+        pytest.importorskip("trimesh")
+    (tmp_path / name).write_text(text)
+    lines = errors(mesh_scene({"file": name}), tmp_path)
+    assert len(lines) == 1 and lines[0].startswith(message)
