@@ -263,6 +263,10 @@ def with_schedule(*entries, top=()):
     (with_schedule({"at": 0.1, "velocity": [1, 0, 0]}, top=[{"wall": "drum", "at": 0.1, "remove": True}]),
      'schedule[0].at = 0.1: meshes[0] ("drum") already has a schedule entry at t = 0.1 s '
      "(meshes[0].schedule[0]): give one entry per wall and time"),
+    (with_schedule({"at": 0.1, "velocity": [3e8, 0, 0]}),
+     "meshes[0].schedule[0].velocity = [300000000.0, 0.0, 0.0]: must be at most the speed of light, "
+     "2.99792e+08 m/s, in magnitude: no wall of a Newtonian scene moves faster, and far beyond it the "
+     "contact forces overflow doubles (check the units)"),
     (drum_scene(walls=[{"name": "drum", "point": [0, 0, -0.03], "normal": [0, 0, 1], "material": "steel"}]),
      'meshes[0].name = "drum": another wall has this name (walls[0]): names must be unique among walls '
      "and meshes"),

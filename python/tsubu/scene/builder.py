@@ -189,6 +189,14 @@ def _check_entry(path: str, entry: dict, errors: list) -> bool:
         errors.append((f"{path}.ramp", entry["ramp"], "a ramp needs a velocity or angular_velocity to "
                                                       "reach"))
         return False
+    if "velocity" in entry:
+        from ..simulation import _wall_velocity
+        try:
+            _wall_velocity("velocity", entry["velocity"])
+        except ValueError as e:
+            errors.append((f"{path}.velocity", entry["velocity"],
+                           re.sub(r",? got .*$", "", str(e)[len("velocity "):], flags=re.S)))
+            return False
     if "segments" in entry and "ramp" not in entry:
         errors.append((f"{path}.segments", entry["segments"], "segments divide a ramp: give ramp too "
                                                               "(or leave segments out)"))
