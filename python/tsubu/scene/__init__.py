@@ -1,7 +1,8 @@
 """Scene files: a whole simulation described in TOML, for ``tsubu run scene.toml``.
 
-A scene file names the materials, the walls, where the spheres come from (a generator, an
-inserter or a file), the simulation's options, how long to run and what to write. The format is
+A scene file names the materials, the walls (planes and triangle meshes, with motion schedules:
+a gate that opens, a drum that spins up), where the spheres come from (a generator, an inserter
+or a file), the simulation's options, how long to run and what to write. The format is
 defined once, by the declarative spec ``SPEC``: the loader validates with it (every bad or
 unknown key is reported with its path in the file and its value), and the JSON Schema
 (``docs/scene.schema.json``) and the key reference in ``docs/scene-format.md`` are generated

@@ -16,8 +16,8 @@ import numpy as np
 from .. import _checks
 from ..material import Material
 from ..simulation import Simulation
-from .language import MISSING, SceneError, _closest, _join
-from .spec import FORMAT_VERSION, SPEC
+from .language import _BAD, MISSING, SceneError, _closest, _join
+from .spec import FORMAT_VERSION, RAMP_SEGMENTS, SPEC
 
 
 def read_toml(path) -> dict:
@@ -56,6 +56,9 @@ def validate(data, source: str | None = None) -> dict:
             if name not in materials:
                 errors.append((path, name, "no such material; defined: " + (", ".join(names) or "none")
                                + _closest(name, names)))
+    if checked is not _BAD:  # the walls' names and schedules, once their keys are sound
+        _check_walls(checked, errors)
+    if isinstance(materials, dict) or checked is not _BAD:
         errors.sort(key=lambda e: _order(data, e[0]))
     if errors:
         raise SceneError(errors, source)
@@ -65,7 +68,7 @@ def validate(data, source: str | None = None) -> dict:
 def _material_references(data: dict) -> list:
     """(path, name) of every material name the scene uses (those that are strings)."""
     refs = []
-    for part in ("walls", "particles", "inserters"):
+    for part in ("walls", "meshes", "particles", "inserters"):
         items = data.get(part)
         for k, item in enumerate(items if isinstance(items, list) else []):
             if isinstance(item, dict) and isinstance(item.get("material"), str):
@@ -77,6 +80,225 @@ def _material_references(data: dict) -> list:
             if isinstance(name, str):
                 refs.append((f"pairs[{k}].materials[{j}]", name))
     return refs
+
+
+# ---- walls: names and schedules ----------------------------------------------------------------
+
+def _walls(scene: dict) -> list:
+    """(path, table) of every wall of a checked scene in the order of their wall indices: the
+    [[walls]] planes, then the [[meshes]]."""
+    return ([(f"walls[{k}]", w) for k, w in enumerate(scene.get("walls", []))]
+            + [(f"meshes[{k}]", m) for k, m in enumerate(scene.get("meshes", []))])
+
+
+_MOTION = ("velocity", "angular_velocity")
+
+
+def _schedule_entries(scene: dict, errors: list | None = None) -> list:
+    """Every schedule entry of a checked scene as (wall index, path, entry), the walls' own
+    schedules and [[schedule]]'s; names that match no wall are reported in ``errors``."""
+    walls = _walls(scene)
+    names = {}
+    for index, (path, wall) in enumerate(walls):
+        if "name" in wall:
+            names.setdefault(wall["name"], index)
+    out = []
+    for index, (path, wall) in enumerate(walls):
+        for k, entry in enumerate(wall.get("schedule", [])):
+            out.append((index, f"{path}.schedule[{k}]", entry))
+    for k, entry in enumerate(scene.get("schedule", [])):
+        path = f"schedule[{k}]"
+        targets = [("wall", entry["wall"])] if "wall" in entry else [
+            (f"walls[{j}]", name) for j, name in enumerate(entry["walls"])]
+        for key, name in targets:
+            if name in names:
+                out.append((names[name], path, entry))
+            elif errors is not None:
+                known = list(names)
+                errors.append((f"{path}.{key}", name, "no such wall; named walls: "
+                               + (", ".join(known) if known else "none (give a [[walls]] or "
+                                  "[[meshes]] block a name key)") + _closest(name, known)))
+    return out
+
+
+def _check_walls(scene: dict, errors: list) -> None:
+    """Unique wall names; schedule entries that change something, once each time, not after the
+    wall's removal and not within a ramp of the same motion."""
+    seen: dict = {}
+    for path, wall in _walls(scene):
+        if "name" in wall:
+            if wall["name"] in seen:
+                errors.append((f"{path}.name", wall["name"], f"another wall has this name "
+                               f"({seen[wall['name']]}): names must be unique among walls and meshes"))
+            else:
+                seen[wall["name"]] = path
+    checked_entries = set()
+    by_wall: dict = {}
+    for index, path, entry in _schedule_entries(scene, errors):
+        if path not in checked_entries:
+            checked_entries.add(path)
+            if not _check_entry(path, entry, errors):
+                continue
+        by_wall.setdefault(index, []).append((path, entry))
+    walls = _walls(scene)
+    for index, entries in sorted(by_wall.items()):
+        what = walls[index][0] + (f' ("{walls[index][1]["name"]}")' if "name" in walls[index][1] else "")
+        entries.sort(key=lambda e: e[1]["at"])  # stable: the file's order at equal times
+        removed = None
+        ramps: dict = {}  # motion -> (path, start, end) of the last ramp
+        previous = None
+        for path, entry in entries:
+            at = entry["at"]
+            if previous is not None and previous[1]["at"] == at:
+                errors.append((f"{path}.at", at, f"{what} already has a schedule entry at t = {at!r} s "
+                               f"({previous[0]}): give one entry per wall and time"))
+            elif removed is not None:
+                errors.append((f"{path}.at", at, f"{what} is removed at t = {removed[1]!r} s "
+                               f"({removed[0]}): nothing changes it after that"))
+            for key in _MOTION:
+                ramp = ramps.get(key)
+                if key in entry and ramp is not None and at < ramp[2]:
+                    errors.append((f"{path}.{key}", entry[key], f"changes {what}'s {key} at t = {at!r} s, "
+                                   f"within the ramp of {ramp[0]} (from t = {ramp[1]!r} to {ramp[2]!r} "
+                                   "s): start it when the ramp ends"))
+                if key in entry and "ramp" in entry:
+                    ramps[key] = (path, at, at + entry["ramp"])
+            if entry.get("remove"):
+                removed = (path, at)
+            previous = (path, entry)
+
+
+def _check_entry(path: str, entry: dict, errors: list) -> bool:
+    """One schedule entry on its own: it changes something, a removal alone, a ramp of a motion.
+    False (after reporting) when it does not."""
+    changes = [k for k in (*_MOTION, "center") if k in entry]
+    if entry.get("remove") is False:
+        errors.append((f"{path}.remove", False, "remove = false changes nothing: leave it out, or give "
+                                                "remove = true to remove the wall"))
+        return False
+    if entry.get("remove") and (changes or "ramp" in entry or "segments" in entry):
+        extra = changes + [k for k in ("ramp", "segments") if k in entry]
+        errors.append((path, MISSING, "a removal comes alone: remove = true with "
+                       + ", ".join(extra) + " (a removed wall does not move): give those in another entry"))
+        return False
+    if not changes and not entry.get("remove"):
+        errors.append((path, MISSING, "the entry changes nothing: give velocity, angular_velocity, "
+                                      "center or remove = true"))
+        return False
+    if "ramp" in entry and not any(k in entry for k in _MOTION):
+        errors.append((f"{path}.ramp", entry["ramp"], "a ramp needs a velocity or angular_velocity to "
+                                                      "reach"))
+        return False
+    if "velocity" in entry:
+        from ..simulation import _wall_velocity
+        try:
+            _wall_velocity("velocity", entry["velocity"])
+        except ValueError as e:
+            errors.append((f"{path}.velocity", entry["velocity"],
+                           re.sub(r",? got .*$", "", str(e)[len("velocity "):], flags=re.S)))
+            return False
+    if "segments" in entry and "ramp" not in entry:
+        errors.append((f"{path}.segments", entry["segments"], "segments divide a ramp: give ramp too "
+                                                              "(or leave segments out)"))
+        return False
+    return True
+
+
+def wall_schedule(scene: dict, dt: float) -> list:
+    """The motion changes of a checked scene's schedules as whole steps of ``dt``: a list of
+    ``(step, wall, changes)`` in the order they apply, ``changes`` a dict of ``velocity``,
+    ``angular_velocity``, ``center`` (3-tuples) and ``remove`` (True).
+
+    An entry at time t acts at step ``round(t / dt)`` (the nearest whole step, half to even), as
+    the simulation stands after that step: its change holds from that step on. A ramp of an
+    entry at t over R seconds goes from step s0 = round(t / dt) to s1 = round((t + R) / dt):
+    its n = s1 - s0 steps are cut into m = min(segments, n) segments, segment k from step
+    s0 + floor(k n / m) to s0 + floor((k + 1) n / m), each with the linear ramp's mean over it
+    (the value at its middle, so that a ramp moves a wall as far as the linear one); at s1 the
+    target holds. A ramp shorter than half a step is a jump.
+    """
+    walls = _walls(scene)
+    current = [{k: tuple(w.get(k, (0.0, 0.0, 0.0))) for k in _MOTION} for _, w in walls]
+    changes = []  # (step, wall, order, key, value)
+    entries = sorted(_schedule_entries(scene), key=lambda e: (e[0], e[2]["at"]))
+    order = 0
+    for wall, path, entry in entries:
+        s0 = round(entry["at"] / dt)
+        if entry.get("remove"):
+            changes.append((s0, wall, order, "remove", True))
+            order += 1
+        if "center" in entry:
+            changes.append((s0, wall, order, "center", tuple(entry["center"])))
+            order += 1
+        for key in _MOTION:
+            if key not in entry:
+                continue
+            target = tuple(float(x) for x in entry[key])
+            if "ramp" in entry:
+                start = current[wall][key]
+                s1 = round((entry["at"] + entry["ramp"]) / dt)
+                n = s1 - s0
+                m = min(entry.get("segments", RAMP_SEGMENTS), n)
+                for k in range(m):
+                    a, b = s0 + (k * n) // m, s0 + ((k + 1) * n) // m
+                    fraction = (a + b - 2 * s0) / (2 * n)
+                    value = tuple(x0 + (x1 - x0) * fraction for x0, x1 in zip(start, target))
+                    changes.append((a, wall, order, key, value))
+                    order += 1
+                changes.append((s1, wall, order, key, target))
+            else:
+                changes.append((s0, wall, order, key, target))
+            order += 1
+            current[wall][key] = target
+    changes.sort(key=lambda c: (c[0], c[1], c[2]))
+    out: list = []
+    for step, wall, _, key, value in changes:
+        if not out or out[-1][0] != step or out[-1][1] != wall:
+            out.append((step, wall, {}))
+        out[-1][2][key] = value  # a later change of the same key at the same step wins
+    return out
+
+
+class WallSchedule:
+    """The run hook that applies a scene's wall schedule (:func:`wall_schedule`): it acts only at
+    the steps where a change is due, so the run goes on in the core between them.
+
+    Parameters
+    ----------
+    changes : list
+        ``(step, wall, changes)`` as :func:`wall_schedule` makes them.
+    after : int
+        Only the changes at steps >= ``after`` are applied (a scene's start), or, with
+        ``resumed``, > ``after`` (a checkpoint of step ``after`` holds the changes made there).
+    """
+
+    def __init__(self, changes: list, after: int = 0, resumed: bool = False):
+        self.changes = [c for c in changes if c[0] > after or (c[0] == after and not resumed)]
+        self.position = 0
+
+    def next_step(self, sim) -> int | None:
+        if self.position < len(self.changes):
+            return max(self.changes[self.position][0], sim.step_count)
+        return None
+
+    def act(self, sim) -> None:
+        now = sim.step_count
+        while self.position < len(self.changes) and self.changes[self.position][0] <= now:
+            _, wall, change = self.changes[self.position]
+            if change.get("remove"):
+                if not sim.wall(wall)["removed"]:
+                    sim.remove_wall(wall)
+            else:
+                sim.set_wall_motion(wall, velocity=change.get("velocity"),
+                                    angular_velocity=change.get("angular_velocity"),
+                                    center=change.get("center"))
+            self.position += 1
+
+    def close(self, sim) -> None:
+        pass
+
+    def __repr__(self) -> str:
+        return f"WallSchedule({len(self.changes) - self.position} changes to come)"
 
 
 def _order(data: dict, path: str) -> tuple:
@@ -110,6 +332,9 @@ class Scene:
         The folder the scene's relative paths start from.
     source : str or None
         The scene file's name.
+    schedule : WallSchedule or None
+        The hook that applies the walls' schedules (it runs before the output writers, which
+        see the walls as they are from that step on), or None without schedules.
     """
 
     simulation: Simulation
@@ -120,6 +345,7 @@ class Scene:
     data: dict
     directory: str
     source: str | None = None
+    schedule: "WallSchedule | None" = None
 
     def metadata(self) -> dict:
         """What checkpoints carry so that ``tsubu resume`` can go on: the scene, its directory,
@@ -157,8 +383,9 @@ class Scene:
         kwargs: dict = {"progress": progress}
         if self.checkpoint is not None:
             os.makedirs(os.path.dirname(self.checkpoint["path"]), exist_ok=True)
-        if self.output:
-            kwargs["output"] = list(self.output)
+        hooks = ([self.schedule] if self.schedule is not None else []) + list(self.output)
+        if hooks:
+            kwargs["output"] = hooks
         if self.checkpoint is not None and self.checkpoint["every"] is not None:
             _attach_metadata(sim, self.metadata())  # for the run's periodic checkpoints
             kwargs.update(checkpoint=self.checkpoint["path"], checkpoint_every=self.checkpoint["every"],
@@ -269,8 +496,10 @@ class _Builder:
             self.call(f"pairs[{k}]", overrides, sim.set_pair, a, b, **overrides)
             self.pairs.append((a, b, overrides))
         for k, wall in enumerate(s.get("walls", [])):
-            given = {key: v for key, v in wall.items() if key != "material"}
+            given = {key: v for key, v in wall.items() if key not in ("material", "name", "schedule")}
             self.call(f"walls[{k}]", given, sim.add_plane, material=self.materials[wall["material"]], **given)
+        for k, mesh in enumerate(s.get("meshes", [])):
+            self.mesh(sim, f"meshes[{k}]", mesh)
         for k, block in enumerate(s.get("particles", [])):
             self.particles(sim, f"particles[{k}]", block)
         for k, spec in enumerate(s.get("inserters", [])):
@@ -280,7 +509,44 @@ class _Builder:
         end_time = sim.time + s["simulation"]["duration"]
         return Scene(simulation=sim, end_time=end_time, output=self.output_hooks(sim, out_dir),
                      checkpoint=self.checkpoint(sim, out_dir), output_directory=out_dir, data=data,
-                     directory=self.directory, source=self.source)
+                     directory=self.directory, source=self.source,
+                     schedule=self.schedule(sim, resumed=False))
+
+    def schedule(self, sim: Simulation, resumed: bool) -> "WallSchedule | None":
+        """The hook of the walls' schedules from the simulation's step on (None without any)."""
+        changes = wall_schedule(self.scene, sim.dt)
+        return WallSchedule(changes, sim.step_count, resumed) if changes else None
+
+    def mesh(self, sim: Simulation, path: str, spec: dict) -> int:
+        """Add the mesh wall of a [[meshes]] block; returns its wall index."""
+        from .. import mesh as meshes
+        motion = ("material", "velocity", "angular_velocity", "center", "name", "schedule")
+        if "file" in spec:
+            file = os.path.join(self.directory, spec["file"])
+            where = _join(path, "file")
+            if not os.path.isfile(file):
+                self.fail(where, spec["file"], f"no such file ({file})")
+            try:
+                vertices, faces = meshes.read_mesh(file, scale=spec.get("scale", 1.0))
+            except ImportError as e:
+                self.fail(where, spec["file"], str(e))
+            except (OSError, ValueError) as e:
+                self.fail(where, spec["file"], str(e).replace(f"read_mesh: {file!r} ", "").strip(" :"))
+            center = spec.get("center")
+        else:
+            generator = spec["generator"]
+            given = {k: v for k, v in spec.items() if k not in motion and k != "generator"}
+            if generator in ("cylinder", "square"):  # the shape's centre is the centre of rotation
+                center = spec.get("center", [0.0, 0.0, 0.0])
+                given["center"] = center
+            else:
+                center = spec.get("center")
+            vertices, faces = self.call(path, given, getattr(meshes, generator), **given)
+        given = {k: spec[k] for k in ("velocity", "angular_velocity") if k in spec}
+        if center is not None:
+            given["center"] = center
+        return self.call(path, given, sim.add_mesh, vertices, faces,
+                         material=self.materials[spec["material"]], **given)
 
     # -- parts --
     def simulation(self, options: dict, threads) -> Simulation:
@@ -559,4 +825,5 @@ def resume(checkpoint, *, threads: int | None = None, output_directory=None) -> 
     out_dir = builder.output_directory(out_dir)
     return Scene(simulation=sim, end_time=float(meta["end_time"]), output=builder.output_hooks(sim, out_dir),
                  checkpoint=builder.checkpoint(sim, out_dir), output_directory=out_dir, data=meta["scene"],
-                 directory=builder.directory, source=meta.get("source"))
+                 directory=builder.directory, source=meta.get("source"),
+                 schedule=builder.schedule(sim, resumed=True))

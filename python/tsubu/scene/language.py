@@ -505,3 +505,52 @@ class _NameList(Node):
 
     def kind(self):
         return "array of 2 strings"
+
+
+@dataclasses.dataclass
+class ByKey(Node):
+    """A table whose variant is picked by which one of several keys it has (``[[meshes]]``: a
+    ``file`` or a ``generator``): ``variants`` maps each key to the node (a Table or a Tagged)
+    of the tables that have it."""
+
+    variants: dict
+    doc: str = ""
+    name: str = ""
+
+    def check(self, value, path, errors):
+        keys = list(self.variants)
+        if not isinstance(value, dict):
+            errors.append((path, value, f"must be a table with a key {_listing(keys).replace(chr(34), '')}"))
+            return _BAD
+        given = [k for k in keys if k in value]
+        if len(given) != 1:
+            errors.append((path or "(top level)", MISSING, "give exactly one of " + _listing(keys)
+                           + (f", not {_listing(given, 'and')}" if given else "")))
+            return _BAD
+        return self.variants[given[0]].check(value, path, errors)
+
+    def schema(self):
+        out: dict = {"description": self.doc} if self.doc else {}
+        out["type"] = "object"
+        out["oneOf"] = [node.schema() for node in self.variants.values()]
+        return out
+
+    def kind(self):
+        return "table (by " + " or ".join(f"`{k}`" for k in self.variants) + ")"
+
+
+class StringList(Node):
+    """A non-empty array of non-empty strings (names)."""
+
+    def check(self, value, path, errors):
+        if (not isinstance(value, list) or not value
+                or not all(isinstance(v, str) and v for v in value)):
+            errors.append((path, value, "must be a non-empty array of names (strings)"))
+            return _BAD
+        return list(value)
+
+    def schema(self):
+        return {"type": "array", "items": {"type": "string", "minLength": 1}, "minItems": 1}
+
+    def kind(self):
+        return "array of strings"

@@ -10,7 +10,7 @@ import os
 import re
 import sys
 
-from .language import ArrayOf, MapOf, Table, Tagged, _listing
+from .language import ArrayOf, ByKey, MapOf, Table, Tagged, _listing
 from .spec import SPEC, _region, _sizes
 
 
@@ -28,8 +28,9 @@ def reference_markdown() -> str:
     """The key reference of docs/scene-format.md (every table and key: type, unit, default,
     meaning), generated from the format's spec."""
     out: list[str] = []
+    seen: set = set()  # nested arrays of tables already described ([[walls.schedule]])
 
-    def table(heading: str, node: Table, note: str = "") -> None:
+    def table(heading: str, node: Table, note: str = "", base: str | None = None) -> None:
         out.append(f"### `{heading}`\n")
         if node.doc:
             out.append(node.doc + "\n")
@@ -44,7 +45,7 @@ def reference_markdown() -> str:
         nested = []
         for key, f in node.fields.items():
             node_kind = f.node.kind()
-            if isinstance(f.node, (Table, Tagged, MapOf, ArrayOf)):
+            if isinstance(f.node, (Table, Tagged, MapOf, ArrayOf, ByKey)):
                 nested.append((key, f))
             default = "**required**" if f.required else _code_default(f.default)
             out.append(f"| `{key}` | {node_kind} | {f.unit} | {default} | {f.doc} |")
@@ -52,6 +53,11 @@ def reference_markdown() -> str:
         for key, f in nested:
             if isinstance(f.node, Table):
                 table(f"[{heading.strip('[]')}.{key}]", f.node)
+            elif isinstance(f.node, ArrayOf) and isinstance(f.node.item, Table):
+                name = f"[[{base or heading.strip('[]')}.{key}]]"
+                if name not in seen:
+                    seen.add(name)
+                    table(name, f.node.item)
 
     for key, f in SPEC.fields.items():
         node = f.node
@@ -61,6 +67,13 @@ def reference_markdown() -> str:
         if isinstance(item, Tagged):
             for name, variant in item.variants.items():
                 table(f"{heading} {item.tag} = \"{name}\"", variant)
+        elif isinstance(item, ByKey):
+            for by, node in item.variants.items():
+                if isinstance(node, Tagged):
+                    for name, variant in node.variants.items():
+                        table(f"{heading} {node.tag} = \"{name}\"", variant, base=key)
+                else:
+                    table(f"{heading} {by} = ...", node, base=key)
         else:
             table(heading, item, "" if not f.required else "This table is required.")
     for name, variant in _region().variants.items():

@@ -6,8 +6,8 @@ Schema and the key reference are generated from it (:mod:`tsubu.scene.reference`
 from __future__ import annotations
 
 from .._options import DECLARATIONS, declared
-from .language import (ArrayOf, Boolean, Field, Integer, MapOf, Node, Number, NumberList, String,
-                       Table, Tagged, Vector, _NameList)
+from .language import (ArrayOf, Boolean, ByKey, Field, Integer, MapOf, Node, Number, NumberList,
+                       String, StringList, Table, Tagged, Vector, _NameList)
 
 
 # The version of the scene format (documented as tsubu.scene.FORMAT_VERSION).
@@ -129,6 +129,136 @@ def _writer(name_default: str, doc: str, extra: dict | None = None) -> Table:
                   **(extra or {})}, doc=doc, one_of=(("every", "interval"),))
 
 
+# ---- walls: meshes and motion schedules ---------------------------------------------------------
+
+# Schedule entries' ramps: piecewise-constant segments by default (docs/scene-format.md).
+RAMP_SEGMENTS = 20
+
+
+def _schedule_entry(top_level: bool = False) -> Table:
+    """An entry of a wall's motion schedule (``[[walls.schedule]]``, ``[[meshes.schedule]]``) or,
+    with ``top_level``, of ``[[schedule]]`` (which names its walls)."""
+    fields = {}
+    if top_level:
+        fields["wall"] = Field(String(), "The name of the wall the entry changes.")
+        fields["walls"] = Field(StringList(), "The names of the walls the entry changes (together: "
+                                              "a box of planes that turns as one body).")
+    fields.update({
+        "at": Field(Number("s", **NON_NEGATIVE), "Simulated time of the change, rounded to the "
+                                                 "nearest whole step.", required=True, unit="s"),
+        "velocity": Field(Vector(unit="m/s"), "New translation velocity.", default="unchanged",
+                          unit="m/s"),
+        "angular_velocity": Field(Vector(unit="rad/s"), "New angular velocity about the centre.",
+                                  default="unchanged", unit="rad/s"),
+        "center": Field(Vector(unit="m"), "New centre of rotation (the wall does not move).",
+                        default="unchanged", unit="m"),
+        "remove": Field(Boolean(), "Remove the wall (a gate that opens): true, alone.",
+                        default="false"),
+        "ramp": Field(Number("s", **POSITIVE), "Reach velocity and angular_velocity linearly over this "
+                                               "long from their values before the entry, in "
+                                               "piecewise-constant segments.", default="none (a jump)",
+                      unit="s"),
+        "segments": Field(Integer(minimum=1), "Segments of the ramp (at most one per step).",
+                          default=str(RAMP_SEGMENTS)),
+    })
+    doc = ("A change of a wall's motion at a simulated time: new velocity, angular velocity or centre "
+           "(the others unchanged), a ramp to them, or the wall's removal.")
+    if top_level:
+        return Table(fields, doc=doc + " Names its walls (the name keys of [[walls]] and [[meshes]]).",
+                     one_of=(("wall", "walls"),), name="schedule")
+    return Table(fields, doc=doc, name="schedule")
+
+
+def _wall_extras(what: str) -> dict:
+    return {
+        "name": Field(String(), f"A name for the {what}, unique among walls and meshes (for "
+                                "[[schedule]]).", default="none"),
+        "schedule": Field(ArrayOf(_schedule_entry(), "Motion changes."),
+                          "Changes of this wall's motion during the run ([[walls.schedule]] / "
+                          "[[meshes.schedule]] blocks after the wall's).", default="none"),
+    }
+
+
+def _mesh_motion(center_doc: str, center_default: str) -> dict:
+    return {
+        "material": Field(String(), "The mesh's material (a name from [materials]).", required=True),
+        "velocity": Field(Vector(unit="m/s"), "Translation velocity.", default="[0, 0, 0]", unit="m/s"),
+        "angular_velocity": Field(Vector(unit="rad/s"), "Angular velocity about center.",
+                                  default="[0, 0, 0]", unit="rad/s"),
+        "center": Field(Vector(unit="m"), center_doc, default=center_default, unit="m"),
+        **_wall_extras("mesh"),
+    }
+
+
+def _meshes(material_name: Node) -> ByKey:
+    rotation = ("Centre of rotation (and of the wall's torque).", "the mean of the vertices")
+    shape_centre = ("The shape's centre (the generator's center), also the centre of rotation "
+                    "(and of the wall's torque).", "[0, 0, 0]")
+
+    def length(doc: str, required: bool = True, default=None) -> Field:
+        return Field(Number("m", **POSITIVE), doc, required=required, default=default, unit="m")
+
+    def count(doc: str, minimum: int) -> Field:
+        return Field(Integer(minimum=minimum), doc, required=True)
+
+    axis = Field(String(("x", "y", "z")), "The axis.", default='"z"')
+    bottom = Field(Vector(unit="m"), "Centre of the bottom opening.", default="[0, 0, 0]", unit="m")
+    generators = Tagged("generator", {
+        "box": Table({
+            "lo": Field(Vector(unit="m"), "Lower corner.", required=True, unit="m"),
+            "hi": Field(Vector(unit="m"), "Upper corner (above lo in x, y and z).", required=True,
+                        unit="m"),
+            **_mesh_motion(*rotation),
+        }, doc="A closed box of 12 triangles (tsubu.mesh.box)."),
+        "square": Table({
+            "size": length("Side."),
+            "normal": Field(Vector(nonzero=True), "Normal.", required=True),
+            "divisions": count("Cells along each side.", 1),
+            "jitter": Field(Number(minimum=0.0, maximum=1.0, exclusive_maximum=True),
+                            "Irregularity of the interior vertices.", default="0"),
+            "seed": Field(Integer(0, 2**64 - 1), "Seed of the jitter.", default="0"),
+            **_mesh_motion(*shape_centre),
+        }, doc="A flat square of triangles (tsubu.mesh.square)."),
+        "cylinder": Table({
+            "radius": length("Radius of the vertices' circles."),
+            "length": length("Length along the axis."),
+            "segments": count("Flat faces around.", 3),
+            "axis": axis,
+            "caps": Field(Boolean(), "Close both ends.", default="false"),
+            **_mesh_motion(*shape_centre),
+        }, doc="A drum: the side of a cylinder, optionally with caps (tsubu.mesh.cylinder)."),
+        "cone": Table({
+            "top_radius": length("Radius of the top circle."),
+            "bottom_radius": length("Radius of the bottom circle (the orifice)."),
+            "height": length("Height along the axis."),
+            "segments": count("Flat faces around.", 3),
+            "axis": Field(String(("x", "y", "z")), "The axis, from the bottom to the top.",
+                          default='"z"'),
+            "bottom": bottom,
+            **_mesh_motion(*rotation),
+        }, doc="A conical hopper, open at both ends (tsubu.mesh.cone)."),
+        "wedge_hopper": Table({
+            "orifice_width": length("Width of the slot (along x)."),
+            "top_width": length("Width of the top opening (>= orifice_width)."),
+            "height": length("Height of the plates."),
+            "depth": length("Length of the slot (along y)."),
+            "bottom": Field(Vector(unit="m"), "Centre of the slot.", default="[0, 0, 0]", unit="m"),
+            **_mesh_motion(*rotation),
+        }, doc="A wedge (slot) hopper (tsubu.mesh.wedge_hopper)."),
+    }, doc="A mesh made by a generator of tsubu.mesh.", name="meshes")
+    from_file = Table({
+        "file": Field(String(), "An STL (binary or ASCII) or OBJ file (relative to the scene file; "
+                                "tsubu.read_mesh, which needs trimesh: pip install 'tsubu[mesh]').",
+                      required=True),
+        "scale": Field(Number(**POSITIVE), "Factor on every coordinate (1e-3 for a file in mm).",
+                       default="1"),
+        **_mesh_motion(*rotation),
+    }, doc="A mesh read from a file (tsubu.read_mesh).", name="meshes")
+    return ByKey({"file": from_file, "generator": generators},
+                 doc="A triangle-mesh wall (Simulation.add_mesh), from a file or a generator.",
+                 name="meshes")
+
+
 def _build_spec() -> Table:
     material_name = String()
     simulation = Table({
@@ -162,8 +292,11 @@ def _build_spec() -> Table:
                         required=True),
         "material": Field(material_name, "The wall's material (a name from [materials]).", required=True),
         "velocity": Field(Vector(unit="m/s"), "Translation velocity.", default="[0, 0, 0]", unit="m/s"),
-        "angular_velocity": Field(Vector(unit="rad/s"), "Angular velocity about point.",
+        "angular_velocity": Field(Vector(unit="rad/s"), "Angular velocity about center.",
                                   default="[0, 0, 0]", unit="rad/s"),
+        "center": Field(Vector(unit="m"), "Centre of rotation, instead of point (planes and meshes that share a centre "
+                                          "and a motion turn as one body).", default="point", unit="m"),
+        **_wall_extras("plane"),
     }, doc="An infinite plane wall (Simulation.add_plane).", name="walls")
 
     common = {"material": Field(material_name, "The spheres' material (a name from [materials]).",
@@ -254,6 +387,10 @@ def _build_spec() -> Table:
                            required=True),
         "pairs": Field(ArrayOf(pair, "Pair overrides."), "Pair overrides."),
         "walls": Field(ArrayOf(wall, "Plane walls."), "Plane walls."),
+        "meshes": Field(ArrayOf(_meshes(material_name), "Mesh walls."), "Triangle-mesh walls."),
+        "schedule": Field(ArrayOf(_schedule_entry(top_level=True), "Wall motion changes."),
+                          "Changes of the named walls' motion during the run (as a wall's own "
+                          "schedule, for one or several walls)."),
         "particles": Field(ArrayOf(particles, "Blocks of spheres."), "Blocks of spheres."),
         "inserters": Field(ArrayOf(inserter, "Inserters."), "Inserters."),
         "output": Field(output, "Output."),
