@@ -218,7 +218,7 @@ std::vector<ContactInfo> Simulation::contacts() const {
   return out;
 }
 
-void Simulation::measure_walls_now() const {
+void Simulation::measure_walls_now(const double* x) const {
   if (!walls_.has_meshes() || lists_.wall_offset.size() != particles_.size() + 1) return;
   const std::size_t count = lists_.wall_index.size();
   wall_planes_.resize(count);
@@ -227,10 +227,11 @@ void Simulation::measure_walls_now() const {
     for (std::size_t e = 0; e < count; ++e) wall_entries_[e] = static_cast<Index>(e);
   }
   const ParticleStore& ps = particles_.arrays();
+  if (x == nullptr) x = ps.x.data();
   for (std::size_t i = 0; i < particles_.size(); ++i) {
     const Index lo = lists_.wall_offset[i], hi = lists_.wall_offset[i + 1];
     if (hi > lo)
-      walls_.measure(vec3(ps.x.data(), i), ps.radius[i], lists_.wall_index.data(), lists_.wall_element.data(),
+      walls_.measure(vec3(x, i), ps.radius[i], lists_.wall_index.data(), lists_.wall_element.data(),
                      wall_entries_.data() + lo, int(hi - lo), wall_planes_.data());
   }
 }
@@ -240,8 +241,13 @@ void Simulation::wall_loads(std::vector<Vec3>& forces, std::vector<Vec3>& torque
   forces.assign(nw, Vec3::Zero());
   torques.assign(nw, Vec3::Zero());
   if (lists_.wall_offset.size() != particles_.size() + 1) return;
-  measure_walls_now();
   const ParticleStore& ps = particles_.arrays();
+  // The forces were evaluated where the spheres stood before the last drift, x - dt v
+  // (symplectic Euler: x_{n+1} = x_n + dt v_{n+1}): their moments are taken there.
+  std::vector<double> before(ps.x.begin(), ps.x.begin() + long(3 * particles_.size()));
+  if (run_.step > 0)
+    for (std::size_t k = 0; k < before.size(); ++k) before[k] -= run_.dt * ps.v[k];
+  measure_walls_now(before.data());
   const CompiledLaw& law = this->law();
   // Serial, in id order: the same digits whatever the thread count.
   particles_.for_each_id([&](Id, Index i) {
@@ -250,7 +256,7 @@ void Simulation::wall_loads(std::vector<Vec3>& forces, std::vector<Vec3>& torque
       const std::size_t w = std::size_t(lists_.wall_index[e]);
       const Vec3 f = -vec3(contacts_.walls.force.data(), e);
       const Plane& P = wall_plane_now(e);
-      const Vec3 at = vec3(ps.x.data(), i) - contact_lever(ps.radius[i], contacts_.walls.overlap[e]) * P.normal;
+      const Vec3 at = vec3(before.data(), i) - contact_lever(ps.radius[i], contacts_.walls.overlap[e]) * P.normal;
       forces[w] += f;
       torques[w] += (at - walls_.plane(int(w)).center).cross(f);
       if (!contacts_.walls.roll.empty())  // the rolling torque's reaction

@@ -173,6 +173,12 @@ void Walls::save(archive::Writer& w) const {
   w.reals("center", center);
   w.integers("kind", kind);
   w.integers("removed", removed);
+  for (std::size_t k = 0; k < n; ++k) {
+    if (kind_[k] != kMesh) continue;
+    archive::Writer m;
+    meshes_[std::size_t(slot_[k])].save(m);
+    w.section("mesh", m);
+  }
   std::vector<double> servo;
   std::vector<std::int64_t> servo_on;
   for (const Servo& s : servo_) {
@@ -181,12 +187,6 @@ void Walls::save(archive::Writer& w) const {
   }
   w.reals("servo", servo);
   w.integers("servo_on", servo_on);
-  for (std::size_t k = 0; k < n; ++k) {
-    if (kind_[k] != kMesh) continue;
-    archive::Writer m;
-    meshes_[std::size_t(slot_[k])].save(m);
-    w.section("mesh", m);
-  }
 }
 
 void Walls::restore(archive::Reader& r, int materials) {

@@ -410,8 +410,9 @@ class Simulation : private detail::RunHooks {
   const Plane& wall_plane_now(Index e) const {
     return walls_.has_meshes() ? wall_planes_[std::size_t(e)] : walls_.plane(lists_.wall_index[std::size_t(e)]);
   }
-  // Measures them (with meshes only); call before wall_plane_now.
-  void measure_walls_now() const;
+  // Measures them (with meshes only) at the positions x (3 N, internal order; default the
+  // spheres'); call before wall_plane_now.
+  void measure_walls_now(const double* x = nullptr) const;
   NeighborList lists_;
   ContactStore contacts_;
 
