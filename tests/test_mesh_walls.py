@@ -1,0 +1,320 @@
+"""Mesh walls (issue 27): the physics of spheres on triangle meshes (docs/geometry.md).
+
+A flat surface made of many triangles is the plane through them: a sphere rolling and sliding
+over it follows its trajectory on that plane (bit for bit on a z = 0 square, to round-off on a
+tilted one) with one contact at a time. A sphere on a convex edge or vertex gets one contact
+along the edge (vertex) normal; in a concave corner one contact per face, with the forces of
+statics. A box mesh is the box of six planes; an STL file is its arrays; a turning or sliding
+mesh drives a sphere as a turning or sliding plane does. Bad meshes are refused naming the
+triangle; runs with meshes are bit-identical for any thread count and through checkpoints.
+
+A wall contact uses the sphere's mass as m_eff (docs/physics.md, "Walls").
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+import tsubu
+from tsubu import mesh
+
+from bits import assert_same_bits
+
+R = 0.5e-3
+KN = 1.0e3
+RHO = 2500.0
+G = 9.81
+M = RHO * 4.0 / 3.0 * math.pi * R ** 3
+DT = 0.02 * 2.0 * math.sqrt(M / KN)  # 1.4472e-6 s, as tests/test_walls.py
+
+
+def material(friction=0.3, restitution=0.5, **kw):
+    return tsubu.Material(density=RHO, kn=KN, restitution=restitution, friction=friction, **kw)
+
+
+def frame(normal):
+    """A unit normal n and two in-plane unit vectors u, v (right-handed)."""
+    n = np.asarray(normal, float) / np.linalg.norm(normal)
+    u = np.cross(n, [0.0, 1.0, 0.0]) if abs(n[1]) < 0.9 else np.cross(n, [1.0, 0.0, 0.0])
+    u /= np.linalg.norm(u)
+    return n, u, np.cross(n, u)
+
+
+def record(sim, samples, every=100):
+    """Runs ``samples * every`` steps; returns the (positions, velocities, spins, dissipated
+    energy) at every ``every`` steps and the number of wall contacts at each of them."""
+    states, contacts = [], []
+    for _ in range(samples):
+        sim.run(steps=every)
+        states.append((sim.positions, sim.velocities, sim.angular_velocities,
+                       sim.energy()["dissipated"]))
+        contacts.append(int((sim.contacts()["wall"] >= 0).sum()))
+    return states, contacts
+
+
+# ---- 1. a flat surface of triangles is the plane through them -------------------------------
+
+def sliding_sphere(surface, normal=(0.0, 0.0, 1.0), center=(0.0, 0.0, 0.0)):
+    """A sphere put down on the surface through ``center`` with normal ``normal`` (gravity
+    along -normal, the sphere at its equilibrium overlap m g / kn) sliding at 0.22 m/s in the
+    plane and spinning (100 rad/s about an in-plane axis, 30 about the normal): it slides
+    (friction 0.3 takes about 10 ms to roll) across about 1.5 mm of the 4 mm square, over
+    triangles of 0.2 mm, smaller than the sphere. ``surface(sim, mat)`` adds the wall."""
+    n, u, v = frame(normal)
+    mat = material()
+    sim = tsubu.Simulation(dt=DT, threads=1, gravity=tuple(-G * n))
+    start = np.asarray(center) + (R - M * G / KN) * n - 1.5e-3 * u - 1.0e-3 * v
+    sim.add_sphere(start, R, mat, velocity=0.2 * u + 0.1 * v, angular_velocity=30 * n + 100 * u)
+    surface(sim, mat, n, np.asarray(center, float))
+    return sim
+
+
+def on_plane(sim, mat, n, c):
+    sim.add_plane(point=c, normal=n, material=mat)
+
+
+def on_square(jitter, divisions=20):
+    def add(sim, mat, n, c):
+        sim.add_mesh(*mesh.square(c, 4e-3, n, divisions, jitter=jitter), material=mat)
+    return add
+
+
+@pytest.mark.parametrize("jitter", [0.0, 0.4])
+def test_a_sphere_slides_and_rolls_over_a_flat_square_as_over_its_plane(jitter):
+    """z = 0: the square's vertices lie exactly at z = 0 (docs/geometry.md), every triangle's
+    plane is the plane z = 0 to the bit, and the hand-over of the contact's history between
+    triangles copies it whole: positions, velocities, spins and dissipated energy every 100
+    steps equal the plane's to the bit, regular or irregular tessellation, while the sphere
+    crosses triangle edges (it slides, then rolls, about 1.5 mm over 0.2 mm triangles)."""
+    plane, on_plane_contacts = record(sliding_sphere(on_plane), 80)
+    squared, on_square_contacts = record(sliding_sphere(on_square(jitter)), 80)
+    assert on_square_contacts == on_plane_contacts == [1] * 80
+    for k, (a, b) in enumerate(zip(plane, squared)):
+        for name, x, y in zip(("positions", "velocities", "spins"), a[:3], b[:3]):
+            assert np.array_equal(x, y), (k, name)
+        assert a[3] == b[3], k
+    travelled = np.linalg.norm(squared[-1][0][0] - squared[0][0][0])
+    assert travelled > 1e-3  # crossed several triangles (0.2 mm wide)
+    assert plane[-1][3] > 0  # it slid: friction dissipated energy
+
+
+def test_a_sphere_touches_a_flat_square_once_at_every_step():
+    """At every one of 3000 steps of the slide over the irregular square, exactly one contact,
+    with one of the square's triangles."""
+    sim = sliding_sphere(on_square(0.4))
+    elements = set()
+    for _ in range(3000):
+        sim.run(steps=1)
+        c = sim.contacts()
+        assert c["wall"].tolist() == [0]
+        elements.add(int(c["element"][0]))
+    assert len(elements) > 5  # it went over several triangles
+
+
+def test_a_sphere_slides_over_a_tilted_square_as_over_its_plane_to_round_off():
+    """A square with normal (0.3, -0.2, 0.9) through (1, 2, -0.5) mm against the plane through
+    that point with that normal (gravity along -n). The triangles' vertices are the centre plus
+    in-plane offsets, each rounded to about 1e-19 m (half an ulp of a millimetre), so each
+    triangle's plane differs from the wall's by about that much, which is 1e-11 of the
+    equilibrium overlap m g / kn = 1.3e-8 m: forces, and so the trajectory, differ in their
+    11th digit at most. Checked: positions to 1e-15 m (a part in 1e12 of the millimetre), and
+    velocities, spins and dissipated energy to 1e-9 of their scale (0.2 m/s, 100 rad/s, the
+    energy dissipated); the run seen agrees far better (1e-14 relative)."""
+    normal, center = (0.3, -0.2, 0.9), (1e-3, 2e-3, -0.5e-3)
+    plane, on_plane_contacts = record(sliding_sphere(on_plane, normal, center), 80)
+    squared, on_square_contacts = record(sliding_sphere(on_square(0.4), normal, center), 80)
+    assert on_square_contacts == on_plane_contacts == [1] * 80
+    for a, b in zip(plane, squared):
+        assert np.allclose(a[0], b[0], rtol=0, atol=1e-15)
+        assert np.allclose(a[1], b[1], rtol=0, atol=1e-9 * 0.2)
+        assert np.allclose(a[2], b[2], rtol=0, atol=1e-9 * 100)
+        assert a[3] == pytest.approx(b[3], rel=1e-9, abs=0)
+    assert plane[-1][3] > 0
+
+
+# ---- 2. convex edges and vertices -----------------------------------------------------------
+
+def roof(slope):
+    """A ridge along y at x = 0, z = 0 with two faces falling at ``slope`` (radians) to
+    x = -/+ 3 mm: four triangles sharing the ridge's vertices."""
+    a, L = 3e-3, 2e-3
+    h = -a * math.tan(slope)
+    vertices = np.array([[0, -L, 0], [0, L, 0], [-a, -L, h], [-a, L, h], [a, -L, h], [a, L, h]])
+    faces = np.array([[2, 0, 1], [2, 1, 3], [0, 4, 5], [0, 5, 1]])
+    return vertices, faces
+
+
+def pyramid(slope):
+    """A square pyramid with its apex at the origin, faces falling at ``slope``."""
+    a = 3e-3
+    h = -a * math.tan(slope)
+    base = [[-a, -a, h], [a, -a, h], [a, a, h], [-a, a, h]]
+    vertices = np.array([[0.0, 0.0, 0.0]] + base)
+    faces = np.array([[0, 1, 2], [0, 2, 3], [0, 3, 4], [0, 4, 1]])
+    return vertices, faces
+
+
+def settle(sim, steps=6000):
+    sim.run(steps=steps)
+    return sim.contacts()
+
+
+@pytest.mark.parametrize("shape", [roof, pyramid], ids=["ridge", "apex"])
+@pytest.mark.parametrize("friction", [0.0, 0.5])
+def test_a_sphere_on_a_convex_edge_or_vertex_feels_one_vertical_contact(shape, friction):
+    """A sphere put on the ridge of a roof (or the apex of a pyramid), faces falling at 20
+    degrees: its nearest point on the mesh is the edge (vertex), the contact is along the
+    vertical through it (the edge's normal toward the sphere), one contact only, and after
+    the dashpot has damped the bounce (e = 0.5: e-folding in 0.17 ms, 6000 steps are 8.7 ms)
+    its force is the weight, m g upward, to 1e-9; the symmetric scene keeps the sphere on the
+    ridge (x = 0 exactly)."""
+    mat = material(friction=friction)
+    sim = tsubu.Simulation(dt=DT, threads=1)
+    sim.add_mesh(*shape(math.radians(20)), material=mat)
+    sim.add_sphere((0.0, 0.0, R + 2e-6), R, mat)
+    c = settle(sim)
+    assert c["wall"].tolist() == [0]
+    f = c["force"][0]
+    assert f[2] == pytest.approx(M * G, rel=1e-9)
+    assert abs(f[0]) <= 1e-12 * M * G and abs(f[1]) <= 1e-12 * M * G
+    assert c["overlap"][0] == pytest.approx(M * G / KN, rel=1e-9)
+    assert sim.positions[0, 0] == 0.0
+
+
+# ---- 3. concave corners ---------------------------------------------------------------------
+
+def vee(half_angle):
+    """A V-groove along y: two faces meeting at the line x = 0, z = 0, each at ``half_angle``
+    from the vertical, rising to z = 3 mm."""
+    H, L = 3e-3, 2e-3
+    a = H * math.tan(half_angle)
+    vertices = np.array([[0, -L, 0], [0, L, 0], [-a, -L, H], [-a, L, H], [a, -L, H], [a, L, H]])
+    faces = np.array([[0, 1, 3], [0, 3, 2], [0, 4, 5], [0, 5, 1]])
+    return vertices, faces
+
+
+@pytest.mark.parametrize("half_angle", [30.0, 45.0, 60.0])
+def test_a_sphere_in_a_v_groove_presses_each_face_with_the_force_of_statics(half_angle):
+    """Frictionless faces at half-angle a from the vertical: each face pushes along its normal,
+    which makes the angle a with the horizontal, so its vertical part is N sin a; the horizontal
+    parts cancel by symmetry and the vertical ones carry the weight: 2 N sin a = m g,
+    N = m g / (2 sin a) (the wedge of any statics text, e.g. Meriam & Kraige, Engineering
+    Mechanics: Statics, ch. 3). One contact per face (each with a triangle of that face), each
+    force N along that face's normal, to 1e-9 once the dashpots have settled the sphere."""
+    a = math.radians(half_angle)
+    mat = material(friction=0.0)
+    sim = tsubu.Simulation(dt=DT, threads=1)
+    sim.add_mesh(*vee(a), material=mat)
+    sim.add_sphere((0.0, 0.0, R / math.sin(a)), R, mat)
+    c = settle(sim, 12000)
+    assert c["wall"].tolist() == [0, 0]
+    faces = sorted(int(e) // 2 for e in c["element"])
+    assert faces == [0, 1]  # triangles 0, 1 are the face at -x, 2, 3 the face at +x
+    N = M * G / (2.0 * math.sin(a))
+    for f in c["force"]:
+        side = -1.0 if f[0] > 0 else 1.0  # the face at -x pushes toward +x
+        normal = np.array([-side * math.cos(a), 0.0, math.sin(a)])
+        assert np.linalg.norm(f) == pytest.approx(N, rel=1e-9)
+        assert np.allclose(f / np.linalg.norm(f), normal, rtol=0, atol=1e-9)
+    assert sim.forces[0] == pytest.approx(np.zeros(3), abs=1e-9 * M * G)
+
+
+def test_a_sphere_in_a_box_corner_presses_the_three_faces_with_a_third_each():
+    """Gravity along -(1, 1, 1)/sqrt(3) into the corner lo of a cube mesh (frictionless): the
+    three faces' normals are x, y, z, and statics along each gives N = m g / sqrt(3) per face,
+    one contact per face (the sphere's foot on each face lies on the diagonal that splits it
+    into two triangles: still one contact per face), to 1e-9."""
+    mat = material(friction=0.0)
+    sim = tsubu.Simulation(dt=DT, threads=1, gravity=tuple(-G / math.sqrt(3) * np.ones(3)))
+    sim.add_mesh(*mesh.box((0, 0, 0), (4e-3, 4e-3, 4e-3)), material=mat)
+    sim.add_sphere((R + 1e-6,) * 3, R, mat)
+    c = settle(sim, 12000)
+    assert c["wall"].tolist() == [0, 0, 0]
+    sides = sorted(int(e) // 2 for e in c["element"])
+    assert sides == [0, 2, 4]  # the sides x = lo, y = lo, z = lo (two triangles each)
+    forces = c["force"][np.argsort(c["element"])]
+    N = M * G / math.sqrt(3)
+    assert np.allclose(forces, N * np.eye(3), rtol=0, atol=1e-9 * N)
+
+
+# ---- 4. a box mesh is the box of six planes -------------------------------------------------
+
+LO, HI = np.array([0.0, 0.0, 0.0]), np.array([4e-3, 3e-3, 5e-3])
+
+
+def bouncing_in_a_box(walls, threads=1):
+    """Five frictional spheres thrown about (0.3 m/s, spinning) inside the box [LO, HI]."""
+    mat = material(friction=0.5)
+    sim = tsubu.Simulation(dt=DT, threads=threads, parallel_min=0)
+    rng = np.random.default_rng(3)
+    x = np.array([[1.0, 1.0, 1.0], [3.0, 1.0, 1.5], [1.0, 2.0, 3.0], [3.0, 2.0, 4.0],
+                  [2.0, 1.5, 2.5]]) * 1e-3
+    sim.add_spheres(x, 0.45e-3, mat, velocities=rng.normal(0, 0.3, x.shape),
+                    angular_velocities=rng.normal(0, 300, x.shape))
+    walls(sim, mat)
+    return sim
+
+
+def six_planes(sim, mat):
+    for axis in range(3):
+        n = np.eye(3)[axis]
+        sim.add_plane(point=LO, normal=n, material=mat)
+        sim.add_plane(point=HI, normal=-n, material=mat)
+
+
+def box_mesh(sim, mat):
+    sim.add_mesh(*mesh.box(LO, HI), material=mat)
+
+
+def test_a_box_mesh_is_the_box_of_six_planes():
+    """The box's triangles have axis-aligned edges, so their normals (cross products of
+    differences of coordinates that are equal in all but one axis) are exactly the axes and the
+    distance to a side is the one coordinate difference the plane takes: the same contact
+    geometry to the bit, so the same trajectories, step after step, while the spheres hit the
+    walls (near corners and edges too) and each other."""
+    planes, mesh_box = bouncing_in_a_box(six_planes), bouncing_in_a_box(box_mesh)
+    touches = 0
+    for _ in range(30):
+        planes.run(steps=200)
+        mesh_box.run(steps=200)
+        for name in ("positions", "velocities", "angular_velocities"):
+            assert np.array_equal(getattr(planes, name), getattr(mesh_box, name)), name
+        assert planes.energy()["dissipated"] == mesh_box.energy()["dissipated"]
+        touches += int((planes.contacts()["wall"] >= 0).sum())
+        assert (planes.contacts()["wall"] >= 0).sum() == (mesh_box.contacts()["wall"] >= 0).sum()
+    assert touches > 0
+
+
+# ---- 5. an STL file is its arrays -----------------------------------------------------------
+
+@pytest.mark.parametrize("binary", [False, True])
+def test_an_stl_file_and_its_arrays_give_the_same_run(tmp_path, binary):
+    """A cone hopper written to STL and read back: ASCII STL keeps every coordinate to the bit;
+    binary STL keeps float32, so the cone is first rounded to float32 (exact in both). The
+    merged vertices may be numbered differently, but each triangle keeps its corners and its
+    place, so the run (spheres poured into the hopper) is the same to the bit."""
+    pytest.importorskip("trimesh")
+    vertices, faces = mesh.cone(3e-3, 0.4e-3, 3e-3, 12)  # orifice narrower than a sphere
+    if binary:
+        vertices = vertices.astype(np.float32).astype(np.float64)
+    path = mesh.write_stl(tmp_path / "cone.stl", vertices, faces, binary=binary)
+    read_vertices, read_faces = tsubu.read_mesh(path)
+    assert np.array_equal(read_vertices[read_faces], vertices[faces])
+
+    def pour(v, f):
+        mat = material(friction=0.5)
+        sim = tsubu.Simulation(dt=DT, threads=1)
+        sim.add_mesh(v, f, material=mat, center=(0, 0, 0))
+        x = np.array([[0, 0, 1.2e-3], [1.2e-3, 0.3e-3, 2.0e-3], [-0.9e-3, -0.9e-3, 2.8e-3]])
+        sim.add_spheres(x, 0.4e-3, mat)
+        return sim
+
+    a, b = pour(vertices, faces), pour(read_vertices, read_faces)
+    for _ in range(4):
+        a.run(steps=3000)
+        b.run(steps=3000)
+        assert_same_bits(a, b)
+    assert (a.contacts()["wall"] >= 0).sum() >= 3  # all three rest on the cone's faces
