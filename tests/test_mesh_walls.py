@@ -178,9 +178,9 @@ def test_a_sphere_on_a_convex_edge_or_vertex_feels_one_vertical_contact(shape, f
     c = settle(sim)
     assert c["wall"].tolist() == [0]
     f = c["force"][0]
-    assert f[2] == pytest.approx(M * G, rel=1e-9)
+    assert f[2] == pytest.approx(M * G, rel=1e-9, abs=0)
     assert abs(f[0]) <= 1e-12 * M * G and abs(f[1]) <= 1e-12 * M * G
-    assert c["overlap"][0] == pytest.approx(M * G / KN, rel=1e-9)
+    assert c["overlap"][0] == pytest.approx(M * G / KN, rel=1e-9, abs=0)
     assert sim.positions[0, 0] == 0.0
 
 
@@ -217,7 +217,7 @@ def test_a_sphere_in_a_v_groove_presses_each_face_with_the_force_of_statics(half
     for f in c["force"]:
         side = -1.0 if f[0] > 0 else 1.0  # the face at -x pushes toward +x
         normal = np.array([-side * math.cos(a), 0.0, math.sin(a)])
-        assert np.linalg.norm(f) == pytest.approx(N, rel=1e-9)
+        assert np.linalg.norm(f) == pytest.approx(N, rel=1e-9, abs=0)
         assert np.allclose(f / np.linalg.norm(f), normal, rtol=0, atol=1e-9)
     assert sim.forces[0] == pytest.approx(np.zeros(3), abs=1e-9 * M * G)
 
@@ -318,3 +318,64 @@ def test_an_stl_file_and_its_arrays_give_the_same_run(tmp_path, binary):
         b.run(steps=3000)
         assert_same_bits(a, b)
     assert (a.contacts()["wall"] >= 0).sum() >= 3  # all three rest on the cone's faces
+
+
+# ---- 6. moving meshes drive spheres as moving planes do -------------------------------------
+
+def on_turntable(wall, velocity=(0.0, 0.0, 0.0), angular_velocity=(0.0, 0.0, 0.0)):
+    """A sphere at rest on a floor (a plane or a 4 mm square of 20 x 20 jittered triangles,
+    centre (0.3, -0.2, 0) mm) 1.2 mm off the centre, the floor moving as given: friction
+    drags the sphere along."""
+    mat = material(friction=0.5)
+    sim = tsubu.Simulation(dt=DT, threads=1)
+    sim.add_sphere((1.5e-3, -0.2e-3, R - M * G / KN), R, mat)
+    c = (0.3e-3, -0.2e-3, 0.0)
+    if wall == "plane":
+        sim.add_plane(point=c, normal=(0, 0, 1), material=mat, velocity=velocity,
+                      angular_velocity=angular_velocity, center=c)
+    else:
+        sim.add_mesh(*mesh.square(c, 4e-3, (0, 0, 1), 20, jitter=0.4), material=mat,
+                     velocity=velocity, angular_velocity=angular_velocity, center=c)
+    return sim
+
+
+@pytest.mark.parametrize("motion", [dict(angular_velocity=(0.0, 0.0, 40.0)),
+                                    dict(velocity=(0.05, 0.03, 0.0))],
+                         ids=["turning", "sliding"])
+def test_a_moving_square_drags_a_sphere_as_the_moving_plane_does(motion):
+    """A floor turning at 40 rad/s about the vertical through its centre (the sphere, 1.2 mm
+    off-axis, is dragged round at up to 48 mm/s), or sliding at (50, 30, 0) mm/s: the mesh,
+    whose vertices turn (slide) with it, and the plane through the same centre with the same
+    motion, whose surface velocity is v + w x (x - c), give the same trajectory. The mesh's
+    vertices are moved by its rigid motion each step, so its triangles' planes differ from
+    z = 0 by round-off of the rotation (1e-19 m relative to the 1.3e-8 m overlap) and the
+    contact point's wall velocity by round-off of the same: positions to 1e-15 m,
+    velocities to 1e-9 of the 0.05 m/s scale, spins to 1e-9 of the 100 rad/s scale."""
+    plane, mesh_floor = on_turntable("plane", **motion), on_turntable("mesh", **motion)
+    start = plane.positions[0].copy()
+    for _ in range(30):
+        plane.run(steps=200)
+        mesh_floor.run(steps=200)
+        assert (mesh_floor.contacts()["wall"] >= 0).sum() == 1
+        assert np.allclose(plane.positions, mesh_floor.positions, rtol=0, atol=1e-15)
+        assert np.allclose(plane.velocities, mesh_floor.velocities, rtol=0, atol=1e-9 * 0.05)
+        assert np.allclose(plane.angular_velocities, mesh_floor.angular_velocities, rtol=0,
+                           atol=1e-9 * 100)
+    assert np.linalg.norm(plane.positions[0] - start) > 0.05e-3  # the floor dragged it along
+    assert np.linalg.norm(plane.velocities[0]) > 0.01
+
+
+def test_a_turning_mesh_keeps_its_shape_and_turns_about_its_centre():
+    """After a quarter turn (40 rad/s for pi/80 s) about z through its centre c, the square's
+    vertices are those of the start turned by 90 degrees about c (to round-off, 1e-15 m), and
+    ``wall(0)`` reports them."""
+    sim = on_turntable("mesh", angular_velocity=(0.0, 0.0, 40.0))
+    before = sim.wall(0)["vertices"].copy()
+    c = sim.wall(0)["center"]
+    steps = round(math.pi / 80 / DT)
+    sim.dt = math.pi / 80 / steps
+    sim.run(steps=steps)
+    turned = c + (before - c) @ np.array([[0.0, 1.0, 0.0], [-1.0, 0.0, 0.0], [0.0, 0.0, 1.0]])
+    assert np.allclose(sim.wall(0)["vertices"], turned, rtol=0, atol=1e-15)
+    assert np.array_equal(sim.wall(0)["faces"], mesh.square(c, 4e-3, (0, 0, 1), 20,
+                                                            jitter=0.4)[1])
