@@ -45,12 +45,13 @@ def frame(normal):
 
 def record(sim, samples, every=100):
     """Runs ``samples * every`` steps; returns the (positions, velocities, spins, dissipated
-    energy) at every ``every`` steps and the number of wall contacts at each of them."""
+    energy, contacts' tangential springs) at every ``every`` steps and the number of wall
+    contacts at each of them."""
     states, contacts = [], []
     for _ in range(samples):
         sim.run(steps=every)
         states.append((sim.positions, sim.velocities, sim.angular_velocities,
-                       sim.energy()["dissipated"]))
+                       sim.energy()["dissipated"], sim.contacts()["tangential_displacement"]))
         contacts.append(int((sim.contacts()["wall"] >= 0).sum()))
     return states, contacts
 
@@ -59,15 +60,18 @@ def record(sim, samples, every=100):
 
 def sliding_sphere(surface, normal=(0.0, 0.0, 1.0), center=(0.0, 0.0, 0.0)):
     """A sphere put down on the surface through ``center`` with normal ``normal`` (gravity
-    along -normal, the sphere at its equilibrium overlap m g / kn) sliding at 0.22 m/s in the
-    plane and spinning (100 rad/s about an in-plane axis, 30 about the normal): it slides
-    (friction 0.3 takes about 10 ms to roll) across about 1.5 mm of the 4 mm square, over
-    triangles of 0.2 mm, smaller than the sphere. ``surface(sim, mat)`` adds the wall."""
+    along -normal, the sphere at its equilibrium overlap m g / kn), moving at 0.22 m/s in the
+    plane and spinning so that it slips at 0.03 m/s (and 30 rad/s about the normal): friction
+    (0.3) stops the slip in about 2000 steps, then it rolls with a loaded tangential spring,
+    about 2.3 mm in 8000 steps across the 4 mm square of triangles of 0.2 mm, smaller than
+    the sphere. ``surface(sim, mat, n, c)`` adds the wall."""
     n, u, v = frame(normal)
     mat = material()
     sim = tsubu.Simulation(dt=DT, threads=1, gravity=tuple(-G * n))
     start = np.asarray(center) + (R - M * G / KN) * n - 1.5e-3 * u - 1.0e-3 * v
-    sim.add_sphere(start, R, mat, velocity=0.2 * u + 0.1 * v, angular_velocity=30 * n + 100 * u)
+    velocity = 0.2 * u + 0.1 * v
+    sim.add_sphere(start, R, mat, velocity=velocity,
+                   angular_velocity=np.cross(n, velocity) / R + 60 * u + 30 * n)
     surface(sim, mat, n, np.asarray(center, float))
     return sim
 
@@ -87,23 +91,26 @@ def test_a_sphere_slides_and_rolls_over_a_flat_square_as_over_its_plane(jitter):
     """z = 0: the square's vertices lie exactly at z = 0 (docs/geometry.md), every triangle's
     plane is the plane z = 0 to the bit, and the hand-over of the contact's history between
     triangles copies it whole: positions, velocities, spins and dissipated energy every 100
-    steps equal the plane's to the bit, regular or irregular tessellation, while the sphere
-    crosses triangle edges (it slides, then rolls, about 1.5 mm over 0.2 mm triangles)."""
+    steps equal the plane's to the bit, and so does the contact's tangential spring, regular
+    or irregular tessellation, while the sphere slides, then rolls, across triangle edges
+    (about 2.3 mm over 0.2 mm triangles)."""
     plane, on_plane_contacts = record(sliding_sphere(on_plane), 80)
     squared, on_square_contacts = record(sliding_sphere(on_square(jitter)), 80)
     assert on_square_contacts == on_plane_contacts == [1] * 80
+    assert np.abs(plane[40][4]).max() > 1e-9  # rolling: a loaded spring
     for k, (a, b) in enumerate(zip(plane, squared)):
         for name, x, y in zip(("positions", "velocities", "spins"), a[:3], b[:3]):
             assert np.array_equal(x, y), (k, name)
         assert a[3] == b[3], k
+        assert np.array_equal(a[4], b[4]), k  # the spring crossed the edges whole
     travelled = np.linalg.norm(squared[-1][0][0] - squared[0][0][0])
-    assert travelled > 1e-3  # crossed several triangles (0.2 mm wide)
+    assert travelled > 2e-3  # crossed several triangles (0.2 mm wide)
     assert plane[-1][3] > 0  # it slid: friction dissipated energy
 
 
 def test_a_sphere_touches_a_flat_square_once_at_every_step():
-    """At every one of 3000 steps of the slide over the irregular square, exactly one contact,
-    with one of the square's triangles."""
+    """At every one of 3000 steps of the slide (and the start of the roll) over the irregular
+    square, exactly one contact, with one of the square's triangles."""
     sim = sliding_sphere(on_square(0.4))
     elements = set()
     for _ in range(3000):
@@ -121,8 +128,8 @@ def test_a_sphere_slides_over_a_tilted_square_as_over_its_plane_to_round_off():
     triangle's plane differs from the wall's by about that much, which is 1e-11 of the
     equilibrium overlap m g / kn = 1.3e-8 m: forces, and so the trajectory, differ in their
     11th digit at most. Checked: positions to 1e-15 m (a part in 1e12 of the millimetre), and
-    velocities, spins and dissipated energy to 1e-9 of their scale (0.2 m/s, 100 rad/s, the
-    energy dissipated); the run seen agrees far better (1e-14 relative)."""
+    velocities, spins and dissipated energy to 1e-9 of their scale (0.2 m/s, 100 rad/s of the
+    450 rad/s, the energy dissipated); the run seen agrees far better (1e-13 relative)."""
     normal, center = (0.3, -0.2, 0.9), (1e-3, 2e-3, -0.5e-3)
     plane, on_plane_contacts = record(sliding_sphere(on_plane, normal, center), 80)
     squared, on_square_contacts = record(sliding_sphere(on_square(0.4), normal, center), 80)
@@ -379,3 +386,184 @@ def test_a_turning_mesh_keeps_its_shape_and_turns_about_its_centre():
     assert np.allclose(sim.wall(0)["vertices"], turned, rtol=0, atol=1e-15)
     assert np.array_equal(sim.wall(0)["faces"], mesh.square(c, 4e-3, (0, 0, 1), 20,
                                                             jitter=0.4)[1])
+
+
+# ---- 8. removing a wall ---------------------------------------------------------------------
+
+def gate_scene(threads=1, gate="plane"):
+    """Four frictional spheres resting on a gate at z = 0.2 mm (wall 1: a plane, or a square
+    mesh), above a floor at z = 0 (wall 2: a jittered square mesh sliding at 2 mm/s); wall 0
+    is a side plane x = -3 mm that they do not touch. Three spheres side by side, a fourth
+    nested on them; gravity 40 m/s^2 (it shortens the fall, not the physics)."""
+    mat = material(friction=0.5)
+    sim = tsubu.Simulation(dt=DT, threads=threads, parallel_min=0, gravity=(0, 0, -40.0))
+    sim.add_plane(point=(-3e-3, 0, 0), normal=(1, 0, 0), material=mat)
+    if gate == "plane":
+        sim.add_plane(point=(0, 0, 0.2e-3), normal=(0, 0, 1), material=mat)
+    else:
+        sim.add_mesh(*mesh.square((0, 0, 0.2e-3), 6e-3, (0, 0, 1), 6), material=mat)
+    sim.add_mesh(*mesh.square((0, 0, 0), 8e-3, (0, 0, 1), 8, jitter=0.3), material=mat,
+                 velocity=(0.002, 0.0, 0.0))
+    x = np.array([[-0.505, 0.0, 0.7], [0.505, 0.0, 0.7], [0.0, -0.875, 0.7],
+                  [0.0, -0.29, 1.53]]) * 1e-3
+    sim.add_spheres(x, R, mat, angular_velocities=[[0, 0, 50], [0, 0, -50], [10, 0, 0],
+                                                    [0, 10, 0]])
+    return sim
+
+
+def open_gate(sim):
+    sim.run(steps=1500)   # settle on the gate
+    sim.remove_wall(1)
+    sim.run(steps=3000)   # fall 0.2 mm onto the floor (2200 steps) and bounce
+    return sim
+
+
+@pytest.mark.parametrize("gate", ["plane", "mesh"])
+def test_spheres_held_by_a_gate_fall_when_it_is_removed(gate):
+    """Before removal the spheres rest on the gate (every one of its contacts); after
+    ``remove_wall(1)`` they fall through where it was onto the floor (wall 2), the gate is
+    still listed (``removed`` true, zero load) and walls 0 and 2 keep their indices."""
+    sim = gate_scene(gate=gate)
+    sim.run(steps=1500)
+    assert set(sim.contacts()["wall"].tolist()) == {-1, 1}
+    assert np.all(sim.positions[:, 2] > 0.2e-3 + 0.9 * R)
+    assert sim.wall_forces()[1, 2] < 0
+    sim.remove_wall(1)
+    assert sim.wall_count == 3
+    assert sim.wall(1)["removed"] and not sim.wall(0)["removed"] and not sim.wall(2)["removed"]
+    assert sim.wall(1)["kind"] == gate and sim.wall(2)["kind"] == "mesh"
+    before = sim.positions
+    sim.run(steps=6000)
+    assert np.all(sim.positions[:, 2] < before[:, 2] - 0.15e-3)  # fell the 0.2 mm
+    walls = set(sim.contacts()["wall"].tolist()) - {-1}
+    assert walls == {2}
+    assert np.array_equal(sim.wall_forces()[1], np.zeros(3))
+    assert sim.wall_forces()[2, 2] < 0
+    with pytest.raises(ValueError, match="wall 3 does not exist"):
+        sim.remove_wall(3)
+
+
+def test_a_run_with_a_removed_wall_is_bit_identical_for_one_and_two_threads():
+    """The gate scene on one thread and on two (parallel_min=0: both really used), from the
+    start through the removal and the fall onto the sliding floor: the same bits."""
+    one = open_gate(gate_scene(threads=1, gate="mesh"))
+    two = open_gate(gate_scene(threads=2, gate="mesh"))
+    assert (one.contacts()["wall"] == 2).sum() > 0
+    assert_same_bits(one, two)
+    assert np.array_equal(one.wall_forces(), two.wall_forces())
+    assert np.array_equal(one.wall_torques(), two.wall_torques())
+
+
+@pytest.mark.parametrize("gate", ["plane", "mesh"])
+def test_a_removed_wall_stays_removed_through_a_checkpoint(tmp_path, gate):
+    """Saved after the removal, mid-fall, and loaded (with 2 threads): the rest of the run
+    gives the bits of the run that never stopped."""
+    whole = open_gate(gate_scene(gate=gate))
+    part = gate_scene(gate=gate)
+    part.run(steps=1500)
+    part.remove_wall(1)
+    part.run(steps=1800)
+    part.save(tmp_path / "gate.tsubu")
+    resumed = tsubu.Simulation.load(tmp_path / "gate.tsubu", threads=2)
+    assert resumed.wall(1)["removed"]
+    assert_same_bits(part, resumed)
+    resumed.run(steps=1200)
+    assert_same_bits(whole, resumed)
+    assert np.array_equal(whole.wall_forces(), resumed.wall_forces())
+    assert np.array_equal(whole.wall_torques(), resumed.wall_torques())
+
+
+def test_a_checkpoint_of_a_turning_sliding_mesh_resumes_bit_for_bit(tmp_path):
+    """A sphere on a square that turns (40 rad/s) and slides (set_wall_motion between runs),
+    saved mid-run: the mesh's pose, motion and centre come back and the continued run (and
+    the mesh's vertices) equal the uninterrupted one's to the bit."""
+    def scene():
+        sim = on_turntable("mesh", angular_velocity=(0.0, 0.0, 40.0))
+        sim.run(steps=1500)
+        sim.set_wall_motion(0, velocity=(0.01, 0.0, 0.0), center=(0.2e-3, -0.2e-3, 0.0))
+        return sim
+
+    whole = scene().run(steps=3000)
+    part = scene().run(steps=1700)
+    part.save(tmp_path / "turning.tsubu")
+    resumed = tsubu.Simulation.load(tmp_path / "turning.tsubu")
+    for key in ("vertices", "center", "velocity", "angular_velocity"):
+        assert np.array_equal(part.wall(0)[key], resumed.wall(0)[key]), key
+    resumed.run(steps=1300)
+    assert_same_bits(whole, resumed)
+    assert np.array_equal(whole.wall(0)["vertices"], resumed.wall(0)["vertices"])
+    assert np.array_equal(whole.wall_torques(), resumed.wall_torques())
+
+
+# ---- 9. bad input ---------------------------------------------------------------------------
+
+def test_bad_meshes_are_refused_naming_the_triangle():
+    mat = material()
+    sim = tsubu.Simulation(dt=DT)
+    v, f = mesh.square((0, 0, 0), 1e-3, (0, 0, 1), 2)  # 9 vertices, 8 triangles
+    bad = v.copy()
+    bad[4, 2] = np.nan
+    with pytest.raises(ValueError, match=r"vertices.*vertex 4.*triangle"):
+        sim.add_mesh(bad, f, material=mat)
+    out = f.copy()
+    out[5, 1] = 9
+    with pytest.raises(ValueError, match=r"triangle 5.*out of range"):
+        sim.add_mesh(v, out, material=mat)
+    flat = v.copy()
+    flat[[0, 1, 4]] = [[0, 0, 0], [1e-3, 0, 0], [2e-3, 0, 0]]  # corners in a line
+    with pytest.raises(ValueError, match=r"triangle 0\b.*degenerate"):
+        sim.add_mesh(flat, f, material=mat)
+    with pytest.raises(ValueError, match=r"triangle 3.*repeats"):
+        sim.add_mesh(v, np.where(np.arange(8)[:, None] == 3, [2, 2, 5], f), material=mat)
+    assert sim.wall_count == 0  # nothing added
+
+
+def test_wall_motion_of_a_missing_wall_and_plane_of_a_mesh_are_refused():
+    mat = material()
+    sim = tsubu.Simulation(dt=DT)
+    sim.add_plane(material=mat)
+    sim.add_mesh(*mesh.box((0, 0, 0), (1e-3, 1e-3, 1e-3)), material=mat)
+    with pytest.raises(ValueError, match="wall 2 does not exist.*2 walls"):
+        sim.set_wall_motion(2, velocity=(0, 0, 1))
+    with pytest.raises(ValueError, match=r"wall 1 is a mesh.*wall\(1\)"):
+        sim.plane(1)
+    with pytest.raises(ValueError, match=r"wall 1 is a mesh"):
+        sim.set_plane_motion(1, velocity=(0, 0, 1))
+    with pytest.raises(TypeError):
+        sim.remove_wall(0.5)
+    sim.set_wall_motion(1, angular_velocity=(0, 0, 1))  # a mesh's motion is set through this
+    assert np.array_equal(sim.wall(1)["angular_velocity"], [0, 0, 1])
+
+
+# ---- 10. determinism ------------------------------------------------------------------------
+
+@pytest.mark.parametrize("hopper", ["cone", "wedge"])
+def test_a_pour_into_a_hopper_is_bit_identical_for_one_and_two_threads(hopper):
+    """8 frictional spheres thrown down (0.3 m/s) with random velocities and spins into a
+    conical (48 triangles) or wedge hopper whose orifice (0.6 mm) holds them (0.9 mm): contacts
+    with faces, edges and vertices, between spheres, with several triangles at once; 1 and 2
+    threads give the same bits (wall loads included)."""
+    def pour(threads):
+        mat = material(friction=0.5)
+        sim = tsubu.Simulation(dt=DT, threads=threads, parallel_min=0)
+        if hopper == "cone":
+            sim.add_mesh(*mesh.cone(4e-3, 0.3e-3, 4e-3, 24), material=mat)
+        else:
+            sim.add_mesh(*mesh.wedge_hopper(0.6e-3, 8e-3, 4e-3, 4e-3), material=mat)
+        g = np.array([-0.5e-3, 0.5e-3])
+        x = np.stack(np.meshgrid(g, g, g + 2.0e-3, indexing="ij"), -1).reshape(-1, 3)
+        rng = np.random.default_rng(5)
+        sim.add_spheres(x, 0.45e-3, mat, velocities=rng.normal(0, 0.05, x.shape) - [0, 0, 0.3],
+                        angular_velocities=rng.normal(0, 100, x.shape))
+        touched = set()
+        for _ in range(24):
+            sim.run(steps=100)
+            c = sim.contacts()
+            touched |= set(c["i"][c["wall"] >= 0].tolist())
+        return sim, touched
+
+    (one, touched), (two, _) = pour(1), pour(2)
+    assert len(touched) >= 4  # the lower four hit the hopper (the upper four land on them)
+    assert_same_bits(one, two)
+    assert np.array_equal(one.wall_forces(), two.wall_forces())
+    assert np.array_equal(one.wall_torques(), two.wall_torques())
