@@ -281,7 +281,7 @@ def test_a_box_mesh_is_the_box_of_six_planes():
     differences of coordinates that are equal in all but one axis) are exactly the axes and the
     distance to a side is the one coordinate difference the plane takes: the same contact
     geometry to the bit, so the same trajectories, step after step, while the spheres hit the
-    walls (near corners and edges too) and each other."""
+    walls and each other (and the same number of wall contacts at every sample)."""
     planes, mesh_box = bouncing_in_a_box(six_planes), bouncing_in_a_box(box_mesh)
     touches = 0
     for _ in range(30):
@@ -314,6 +314,7 @@ def test_an_stl_file_and_its_arrays_give_the_same_run(tmp_path, binary):
     def pour(v, f):
         mat = material(friction=0.5)
         sim = tsubu.Simulation(dt=DT, threads=1)
+        # (The default centre, the mean of the vertices, would depend on their numbering.)
         sim.add_mesh(v, f, material=mat, center=(0, 0, 0))
         x = np.array([[0, 0, 1.2e-3], [1.2e-3, 0.3e-3, 2.0e-3], [-0.9e-3, -0.9e-3, 2.8e-3]])
         sim.add_spheres(x, 0.4e-3, mat)
