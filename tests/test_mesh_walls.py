@@ -108,6 +108,22 @@ def test_a_sphere_slides_and_rolls_over_a_flat_square_as_over_its_plane(jitter):
     assert plane[-1][3] > 0  # it slid: friction dissipated energy
 
 
+def test_triangles_that_share_corners_only_by_coordinates_are_joined_too():
+    """add_mesh joins vertices at equal coordinates (its docstring): the irregular square with
+    each triangle's corners in rows of their own (as an STL file stores them) is the same
+    surface, and the sphere's run is the plane's to the bit, its spring included."""
+    def unmerged(sim, mat, n, c):
+        v, f = mesh.square(c, 4e-3, n, 20, jitter=0.4)
+        sim.add_mesh(v[f].reshape(-1, 3), np.arange(3 * len(f)).reshape(-1, 3), material=mat)
+
+    plane, on_plane_contacts = record(sliding_sphere(on_plane), 80)
+    loose, loose_contacts = record(sliding_sphere(unmerged), 80)
+    assert loose_contacts == on_plane_contacts == [1] * 80
+    for a, b in zip(plane, loose):
+        for x, y in zip(a, b):
+            assert np.array_equal(x, y)
+
+
 def test_a_sphere_touches_a_flat_square_once_at_every_step():
     """At every one of 3000 steps of the slide (and the start of the roll) over the irregular
     square, exactly one contact, with one of the square's triangles."""
