@@ -9,6 +9,7 @@ drum that lifts its grains feels their weight's moment against its rotation.
 
 from __future__ import annotations
 
+import functools
 import math
 
 import numpy as np
@@ -139,6 +140,7 @@ def spin_about_y(sim):
                  + (0.4 * m * r * r * sim.angular_velocities[:, 1]).sum())
 
 
+@functools.lru_cache(maxsize=None)  # (both tests below read the same run)
 def drum_torques(walls, spin=10.0, steps=4000):
     """Spin the drum up for 20000 steps (29 ms: the grains pile up against the rising side),
     then run ``steps`` single steps; returns the drum's wall indices, the impulse of the
