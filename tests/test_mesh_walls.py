@@ -63,7 +63,7 @@ def sliding_sphere(surface, normal=(0.0, 0.0, 1.0), center=(0.0, 0.0, 0.0)):
     along -normal, the sphere at its equilibrium overlap m g / kn), moving at 0.22 m/s in the
     plane and spinning so that it slips at 0.03 m/s (and 30 rad/s about the normal): friction
     (0.3) stops the slip in about 2000 steps, then it rolls with a loaded tangential spring,
-    about 2.3 mm in 8000 steps across the 4 mm square of triangles of 0.2 mm, smaller than
+    about 2.3 mm in 8000 steps across the 4 mm square of 2 x 32 x 32 triangles (cells of 0.125 mm), much smaller than
     the sphere. ``surface(sim, mat, n, c)`` adds the wall."""
     n, u, v = frame(normal)
     mat = material()
@@ -80,7 +80,7 @@ def on_plane(sim, mat, n, c):
     sim.add_plane(point=c, normal=n, material=mat)
 
 
-def on_square(jitter, divisions=20):
+def on_square(jitter, divisions=32):
     def add(sim, mat, n, c):
         sim.add_mesh(*mesh.square(c, 4e-3, n, divisions, jitter=jitter), material=mat)
     return add
@@ -93,7 +93,7 @@ def test_a_sphere_slides_and_rolls_over_a_flat_square_as_over_its_plane(jitter):
     triangles copies it whole: positions, velocities, spins and dissipated energy every 100
     steps equal the plane's to the bit, and so does the contact's tangential spring, regular
     or irregular tessellation, while the sphere slides, then rolls, across triangle edges
-    (about 2.3 mm over 0.2 mm triangles)."""
+    (about 2.3 mm over 0.125 mm cells)."""
     plane, on_plane_contacts = record(sliding_sphere(on_plane), 80)
     squared, on_square_contacts = record(sliding_sphere(on_square(jitter)), 80)
     assert on_square_contacts == on_plane_contacts == [1] * 80
@@ -104,7 +104,7 @@ def test_a_sphere_slides_and_rolls_over_a_flat_square_as_over_its_plane(jitter):
         assert a[3] == b[3], k
         assert np.array_equal(a[4], b[4]), k  # the spring crossed the edges whole
     travelled = np.linalg.norm(squared[-1][0][0] - squared[0][0][0])
-    assert travelled > 2e-3  # crossed several triangles (0.2 mm wide)
+    assert travelled > 2e-3  # crossed several triangles (0.125 mm cells)
     assert plane[-1][3] > 0  # it slid: friction dissipated energy
 
 
@@ -113,7 +113,7 @@ def test_triangles_that_share_corners_only_by_coordinates_are_joined_too():
     each triangle's corners in rows of their own (as an STL file stores them) is the same
     surface, and the sphere's run is the plane's to the bit, its spring included."""
     def unmerged(sim, mat, n, c):
-        v, f = mesh.square(c, 4e-3, n, 20, jitter=0.4)
+        v, f = mesh.square(c, 4e-3, n, 32, jitter=0.4)
         sim.add_mesh(v[f].reshape(-1, 3), np.arange(3 * len(f)).reshape(-1, 3), material=mat)
 
     plane, on_plane_contacts = record(sliding_sphere(on_plane), 80)
