@@ -9,10 +9,12 @@ gate is removed and the grains spread along the floor until they stop. The run-o
 (L_inf - L0) / L0 is compared with Lube, Huppert, Sparks & Freundt (2005), for a rectangular
 channel: 1.2 a for a < 1.8 and 1.9 a^(2/3) for a > 2.8 (docs/examples.md).
 
-Removing the gate: tsubu has no ``remove_plane``, so the gate (a plane whose normal points into
-the column) is moved away along its normal at 20 sqrt(g H0), much faster than any grain can
-follow (a collapsing column's front moves at about sqrt(g H0)), to a place beyond any run-out,
-and stopped there (``sim.set_plane_motion``). The example checks that no grain reaches it.
+Removing the gate: the gate (a plane whose normal points into the column) is moved away along
+its normal at 20 sqrt(g H0), much faster than any grain can follow (a collapsing column's front
+moves at about sqrt(g H0)), to a place beyond any run-out, and stopped there
+(``sim.set_plane_motion``); the example checks that no grain reaches it. (This predates
+``sim.remove_wall``, which takes the gate out at once, as examples/scenes/column_collapse.toml
+now does; the run-outs in docs/examples.md were measured with the moving gate.)
 
 One settled pack is made for the tallest column and cut at each height, so every aspect ratio
 starts from the same packing.

@@ -173,34 +173,28 @@ def test_a_spinning_drum_needs_a_driving_torque_along_its_spin(walls):
     the spin. The torque the spheres put on the drum is then against the spin: the driving
     torque -wall_torques . y is positive on average (over 5.8 ms), and by the balance of
     angular momentum about the axis (the caps are frictionless planes normal to y, and pair
-    contacts cancel) its impulse plus gravity's equals the grains' gain of angular momentum;
-    within 1 % here, because wall_torques takes each force's moment at the sphere's position
-    after the step rather than where the step evaluated it (see the strict xfail below)."""
+    contacts cancel) its impulse plus gravity's equals the grains' gain of angular momentum
+    (to round-off: the next test; 1 % here)."""
     driving, _, gravity, gained = drum_torques(walls)
     assert driving > 0
     assert gravity < 0  # the grains sit on the -x side
     assert driving + gravity == pytest.approx(gained, rel=1e-2, abs=0)
 
 
-@pytest.mark.xfail(strict=True, reason="wall_loads (cpp/src/energy.cpp) takes each wall "
-                   "contact's moment at the sphere's position after the step (ps.x, walls "
-                   "re-measured now) while the force is that of the step's evaluation: the "
-                   "torque lags the force by dt v x F")
 @pytest.mark.parametrize("walls", ["mesh", "planes"])
 def test_a_drums_torque_impulse_balances_the_grains_angular_momentum_to_round_off(walls):
     """The step is symplectic Euler: x_n x (v_{n+1} - v_n) = dt x_n x F_n/m and
     (x_{n+1} - x_n) x v_{n+1} = 0, so the grains' angular momentum about the axis changes by
     exactly dt times the moments of the forces at the positions x_n where they were evaluated.
     The wall contacts' part of it (from contacts(), at x_n) closes the balance to round-off
-    (1e-9 here; seen 1e-12, the round-off of the sums of nearly cancelling impulses); wall_torques(), which docs as the moment 'as the last step
-    evaluated its contacts', should give the same impulse."""
+    (1e-9 here; seen 1e-12, the round-off of the sums of nearly cancelling impulses);
+    wall_torques() takes each moment where the force was evaluated (x - dt v) and gives the
+    same impulse."""
     driving, from_contacts, gravity, gained = drum_torques(walls)
     assert from_contacts + gravity == pytest.approx(gained, rel=1e-9, abs=0)
     assert driving + gravity == pytest.approx(gained, rel=1e-9, abs=0)
 
 
-@pytest.mark.xfail(strict=True, reason="wall_loads (cpp/src/energy.cpp) takes the moment at the "
-                   "sphere's position after the step: off by dt v x F (1 % here)")
 def test_the_torque_on_a_floor_is_the_moment_of_the_force_where_it_was_evaluated():
     """The smallest case of the drum's lag: a sphere sliding at 1 m/s along x on a frictional
     floor (plane through the origin, its centre): after one step, contacts() gives the force F
