@@ -104,6 +104,7 @@ TOP = ORIFICE + 2.0 * HEIGHT * math.tan(HALF_ANGLE)   # width at the top [m]
 Z_OUT = -3.0 * D                 # grains whose centre falls below this are removed [m]
 N_DEFAULT = 20000
 STEPS_DEFAULT = 20000
+FIT_DELAY = 0.01                 # the steady part starts this long after the first grain is out [s]
 SETTLED_SPEED = 1.0e-3           # filling ends when the mean speed is below this [m/s]
 
 
@@ -250,18 +251,19 @@ def write_data(path: str, state: dict) -> None:
         fh.write(f"{-0.5 * TOP - margin!r} {0.5 * TOP + margin!r} xlo xhi\n")
         fh.write(f"{-0.5 * DEPTH - margin!r} {0.5 * DEPTH + margin!r} ylo yhi\n")
         fh.write(f"{Z_OUT!r} {HEIGHT + margin!r} zlo zhi\n\nAtoms\n\n")
-        for i in range(n):
-            fh.write(f"{i + 1} 1 {D!r} {RHO!r} {x[i, 0]!r} {x[i, 1]!r} {x[i, 2]!r}\n")
+        ids = np.arange(1, n + 1)
+        # %.17g: every double read back to the bit.
+        np.savetxt(fh, np.column_stack([ids, np.ones(n), np.full(n, D), np.full(n, RHO), x]),
+                   fmt=["%d", "%d"] + ["%.17g"] * 5)
         fh.write("\nVelocities\n\n")
-        for i in range(n):
-            fh.write(f"{i + 1} {v[i, 0]!r} {v[i, 1]!r} {v[i, 2]!r} {w[i, 0]!r} {w[i, 1]!r} {w[i, 2]!r}\n")
+        np.savetxt(fh, np.column_stack([ids, v, w]), fmt=["%d"] + ["%.17g"] * 6)
 
 
-def liggghts_vars(dt: float, steps: int, every: int) -> dict:
+def liggghts_vars(dt: float, steps: int, every: int, n0: int) -> dict:
     """The deck's -var values: tsubu's law in LIGGGHTS's terms (gamma_n = eta_n / m_eff, 1/s)."""
     return {"kn": repr(KN), "kt": repr(KT), "gnp": repr(eta(MASS / 2) / (MASS / 2)),
             "gnw": repr(eta(MASS) / MASS), "mu": repr(MU), "dt": repr(dt), "skin": repr(SKIN),
-            "steps": str(steps), "every": str(every)}
+            "steps": str(steps), "every": str(every), "n0": str(n0), "mgrain": repr(MASS)}
 
 
 def liggghts_version(exe: str) -> str:
@@ -271,12 +273,13 @@ def liggghts_version(exe: str) -> str:
     return m.group(1) if m else "unknown"
 
 
-def run_liggghts(exe: str, workdir: str, data: str, stl: str, dt: float, steps: int, every: int) -> dict:
+def run_liggghts(exe: str, workdir: str, data: str, stl: str, dt: float, steps: int, every: int,
+                 n0: int) -> dict:
     """One LIGGGHTS run (a fresh process, one core); loop time, particle-steps, discharge curve."""
     log = os.path.join(workdir, "log.liggghts")
-    cmd = [exe, "-echo", "none", "-screen", "none", "-log", log, "-in", DECK,
+    cmd = [exe, "-echo", "none", "-log", log, "-in", DECK,
            "-var", "data", data, "-var", "stl", stl]
-    for k, val in liggghts_vars(dt, steps, every).items():
+    for k, val in liggghts_vars(dt, steps, every, n0).items():
         cmd += ["-var", k, val]
     env = dict(os.environ, OMP_NUM_THREADS="1")
     busy0, t0 = system_busy_s(), time.perf_counter()
@@ -290,17 +293,16 @@ def run_liggghts(exe: str, workdir: str, data: str, stl: str, dt: float, steps: 
     m = re.search(r"Loop time of ([0-9.eE+-]+) on (\d+) procs for (\d+) steps with (\d+) atoms", text)
     loop, nsteps = float(m.group(1)), int(m.group(3))
     rows = []
-    block = text[:m.start()].rsplit("Step Time Atoms", 1)[1]
+    block = re.split(r"^\s*Step\s+Time\s+Atoms\s+v_mout\s*$", text[:m.start()], flags=re.M)[-1]
     for line in block.splitlines():
         f = line.split()
-        if len(f) == 3 and f[0].isdigit():
-            rows.append((int(f[0]), float(f[1]), int(f[2])))
+        if len(f) == 4 and f[0].isdigit():
+            rows.append((int(f[0]), float(f[1]), int(f[2]), float(f[3])))
     a = np.array(rows, dtype=float)
     psteps = float(np.sum(0.5 * (a[1:, 2] + a[:-1, 2]) * np.diff(a[:, 0])))
-    n0 = a[0, 2]
     return {"code": "liggghts", "loop_s": loop, "steps": nsteps, "wall_s": wall,
-            "particle_steps": psteps, "rate": psteps / loop, "n0": int(n0), "n_end": int(a[-1, 2]),
-            "t": a[:, 1].tolist(), "discharged_kg": ((n0 - a[:, 2]) * MASS).tolist(),
+            "particle_steps": psteps, "rate": psteps / loop, "n0": int(a[0, 2]), "n_end": int(a[-1, 2]),
+            "t": a[:, 1].tolist(), "discharged_kg": a[:, 3].tolist(),
             "others_cores": None if busy0 is None else max(0.0, (busy1 - busy0 - wall) / wall)}
 
 
@@ -348,10 +350,16 @@ def run_tsubu(state: dict, steps: int, every: int, warmup: int, threads: int = 1
 
 
 # ---------------------------------------------------------------- analysis
-def discharge_rate(t, m, fit_from: float, n0: int) -> dict:
+def discharge_rate(t, m, fit_from, n0: int) -> dict:
     """Least-squares slope of the discharged mass [kg] against time [s] over the steady part:
-    from ``fit_from`` s to the end, or to when 2/3 of the grains are out if earlier."""
+    from ``fit_from`` s (None: FIT_DELAY after the first grain is out) to the end, or to when 2/3
+    of the grains are out if earlier."""
     t, m = np.asarray(t, float), np.asarray(m, float)
+    if fit_from is None:
+        out = np.nonzero(m > 0)[0]
+        if len(out) == 0:
+            return {"rate_kg_s": float("nan"), "window_s": None, "points": 0}
+        fit_from = t[max(out[0] - 1, 0)] + FIT_DELAY
     sel = (t >= fit_from) & (m <= 2.0 / 3.0 * n0 * MASS)
     if sel.sum() < 3:
         return {"rate_kg_s": float("nan"), "window_s": None, "points": int(sel.sum())}
@@ -390,7 +398,8 @@ def main(argv=None) -> int:
     ap.add_argument("--only", choices=("both", "liggghts", "tsubu"), default="both")
     ap.add_argument("--divisions", type=int, default=1, help="cut each quad of the mesh into k x k cells")
     ap.add_argument("--fit-from", type=float, default=None,
-                    help="start of the steady part [s after opening] (default: 40%% of the run)")
+                    help="start of the steady part [s after opening] (default: 0.01 s after the "
+                         "first grain is out)")
     ap.add_argument("--fill-threads", type=int, default=None, help="threads for tsubu's filling run")
     ap.add_argument("--workdir", default=os.path.join(tempfile.gettempdir(), "tsubu-hopper-liggghts"),
                     help="where the packing is cached and the runs write (default %(default)s)")
@@ -437,14 +446,14 @@ def main(argv=None) -> int:
             "liggghts": liggghts_version(exe) if exe else None}
     print(f"LIGGGHTS {info['liggghts']}; {args.steps} steps = {info['simulated_s']:.4f} s after "
           f"opening; {info['triangles']} triangles; {info['machine']['cpu']}")
-    fit_from = args.fit_from if args.fit_from is not None else 0.4 * info["simulated_s"]
+    fit_from = args.fit_from
     runs = []
     for rep in range(args.repeats):
         order = [c for c in ("liggghts", "tsubu") if (c == "liggghts" and want_l) or (c == "tsubu" and want_t)]
         if rep % 2:
             order.reverse()
         for code in order:
-            r = (run_liggghts(exe, args.workdir, data, stl, state["dt"], args.steps, args.every)
+            r = (run_liggghts(exe, args.workdir, data, stl, state["dt"], args.steps, args.every, n)
                  if code == "liggghts" else spawn_tsubu(args, key))
             r["repeat"] = rep
             r.update(discharge_rate(r["t"], r["discharged_kg"], fit_from, n))
@@ -464,7 +473,20 @@ def main(argv=None) -> int:
         pair = {r["code"]: r for r in runs if r["repeat"] == rep}
         if len(pair) == 2:
             ratios.append(pair["tsubu"]["rate"] / pair["liggghts"]["rate"])
-    print(f"\nsteady part fitted from t = {fit_from:.4f} s after opening")
+    print("\ndischarged mass [g] against time after opening (first run of each code):")
+    first = {c: next((r for r in runs if r["code"] == c), None) for c in ("liggghts", "tsubu")}
+    first = {c: r for c, r in first.items() if r}
+    print("   t [s]  " + "  ".join(f"{c:>9s}" for c in first))
+    ref = next(iter(first.values()))
+    stride = max(1, len(ref["t"]) // 20)
+    for i in range(0, len(ref["t"]), stride):
+        cells = []
+        for r in first.values():
+            j = int(np.argmin(np.abs(np.asarray(r["t"]) - ref["t"][i])))
+            cells.append(f"{1e3 * r['discharged_kg'][j]:9.3f}")
+        print(f"  {ref['t'][i]:.4f}  " + "  ".join(cells))
+    for c, r in first.items():
+        print(f"{c}: steady part fitted over {r['window_s']} s ({r['points']} points)")
     for code, s in summary.items():
         print(f"{code:8s}: {s['rate_median'] / 1e6:.3f} M particle-steps/s (median), "
               f"discharge {s['discharge_kg_s_median']:.4f} kg/s")
