@@ -113,7 +113,7 @@ def hopper_mesh(divisions: int = 1) -> tuple[np.ndarray, np.ndarray]:
 
     ``divisions`` = 1: the 8 vertices and 8 triangles of ``tsubu.mesh.wedge_hopper(ORIFICE, TOP,
     HEIGHT, DEPTH)`` (same order); k > 1 cuts each of the four quads into k x k cells, two
-    triangles each (8 k^2 triangles), the same surface."""
+    triangles each (8 k^2 triangles), the same surface, vertices shared along the quads' edges."""
     y0, y1 = -0.5 * DEPTH, 0.5 * DEPTH
     w, t = 0.5 * ORIFICE, 0.5 * TOP
     corners = np.array([[-w, y0, 0.0], [-w, y1, 0.0], [w, y0, 0.0], [w, y1, 0.0],
@@ -136,8 +136,16 @@ def hopper_mesh(divisions: int = 1) -> tuple[np.ndarray, np.ndarray]:
             for j in range(k):
                 a0, a1, a2, a3 = idx(i, j), idx(i, j + 1), idx(i + 1, j + 1), idx(i + 1, j)
                 faces += [(a0, a1, a2), (a0, a2, a3)]
-    # Shared edge vertices are repeated between quads; that leaves the surface the same.
-    return np.concatenate(verts), np.array(faces, dtype=np.int64)
+    # The quads' shared edges: one vertex where two grids meet (within 1 nm), so that neighbouring
+    # triangles share their edge across the corners as within a quad.
+    verts = np.concatenate(verts)
+    _, first, inverse = np.unique(np.round(verts / 1e-9).astype(np.int64), axis=0,
+                                  return_index=True, return_inverse=True)
+    keep = np.sort(first)
+    renumber = np.empty(len(verts), dtype=np.int64)
+    renumber[keep] = np.arange(len(keep))
+    faces = renumber[first[inverse.ravel()]][np.array(faces, dtype=np.int64)]
+    return verts[keep], faces
 
 
 def hopper_planes() -> list[tuple[tuple[float, float, float], tuple[float, float, float]]]:

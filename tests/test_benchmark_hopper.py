@@ -97,3 +97,14 @@ def test_without_liggghts_the_benchmark_says_so_and_exits_2(monkeypatch, capsys)
     monkeypatch.setattr(hl.shutil, "which", lambda name: None)
     assert hl.main(["--only", "liggghts"]) == 2
     assert "liggghts is not installed" in capsys.readouterr().out
+
+
+@pytest.mark.parametrize("divisions", [1, 4])
+def test_the_finer_meshs_triangles_share_their_edges_across_the_hoppers_corners(divisions):
+    vertices, faces = hl.hopper_mesh(divisions)
+    edges = np.sort(np.concatenate([faces[:, [0, 1]], faces[:, [1, 2]], faces[:, [2, 0]]]), axis=1)
+    _, uses = np.unique(edges, axis=0, return_counts=True)
+    # Open only along the top rim (4 k edges), the slot's two lips and the end walls' bottoms (4 k);
+    # every other edge, the four corners between plates and end walls included, joins two triangles.
+    assert sorted(set(uses)) == [1, 2] and np.sum(uses == 1) == 8 * divisions
+    assert len(np.unique(vertices, axis=0)) == len(vertices)
