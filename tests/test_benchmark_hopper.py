@@ -108,3 +108,21 @@ def test_the_finer_meshs_triangles_share_their_edges_across_the_hoppers_corners(
     # every other edge, the four corners between plates and end walls included, joins two triangles.
     assert sorted(set(uses)) == [1, 2] and np.sum(uses == 1) == 8 * divisions
     assert len(np.unique(vertices, axis=0)) == len(vertices)
+
+
+def test_tsubus_particle_steps_count_the_grains_present_in_each_timed_step(monkeypatch):
+    class Emptying:                  # stands in for the discharge scene: 10 grains, 3 leave
+        size = 10
+
+        def run(self, steps):
+            pass
+
+        def removed(self):       # removed at the end of steps 3, 5 and 5
+            return {"step": np.array([5, 3, 5]), "time": np.array([5.0, 3.0, 5.0])}
+
+    monkeypatch.setattr(hl, "build_tsubu", lambda state, threads, divisions: Emptying())
+    r = hl.run_tsubu({"dt": 0.5}, steps=6, every=2, warmup=1)
+    assert r["steps"] == 5
+    assert r["particle_steps"] == 10 + 10 + 9 + 9 + 7     # timed steps 2..6
+    assert r["t"] == [0.0, 1.0, 2.0, 3.0]
+    assert r["discharged_kg"] == [0.0, 0.0, hl.MASS, 3 * hl.MASS]
