@@ -66,6 +66,7 @@ Usage (from the repository root)::
 from __future__ import annotations
 
 import argparse
+import hashlib
 import json
 import math
 import os
@@ -218,10 +219,15 @@ def fill_packing(n: int, threads=None, seed: int = 1, log=_say) -> dict:
             "w": np.array(sim.angular_velocities), "dt": float(dt), "fill_time": float(sim.time)}
 
 
+def packing_path(n: int, workdir: str) -> str:
+    """The packing's cache file: named by n and a digest of everything the filling depends on."""
+    scene = repr((n, R, RHO, KN, KT, E_REST, MU, G, SKIN, ORIFICE, HALF_ANGLE, HEIGHT, DEPTH, SETTLED_SPEED))
+    return os.path.join(workdir, f"hopper_packing_n{n}_{hashlib.sha1(scene.encode()).hexdigest()[:12]}.npz")
+
+
 def packing(n: int, workdir: str, threads=None, log=_say) -> dict:
     """The settled packing of ``n`` spheres, from ``workdir``'s cache or made (and cached) now."""
-    key = f"hopper_packing_n{n}_kn{KN:g}_w{ORIFICE * 1e3:g}mm.npz"
-    path = os.path.join(workdir, key)
+    path = packing_path(n, workdir)
     if os.path.exists(path):
         with np.load(path) as z:
             return {k: (z[k] if z[k].ndim else float(z[k])) for k in z.files}
@@ -445,7 +451,7 @@ def main(argv=None) -> int:
     os.makedirs(args.workdir, exist_ok=True)
     state = packing(args.n, args.workdir, threads=args.fill_threads)
     n = len(state["x"])
-    key = os.path.join(args.workdir, f"hopper_packing_n{args.n}_kn{KN:g}_w{ORIFICE * 1e3:g}mm.npz")
+    key = packing_path(args.n, args.workdir)
     print(f"packing: {n} spheres, settled for {state['fill_time']:.3f} s; top at "
           f"{state['x'][:, 2].max() * 1e3:.1f} mm; dt = {state['dt']:.6e} s; mass {n * MASS * 1e3:.1f} g")
     if args.fill_only:
