@@ -242,25 +242,28 @@ void Simulation::wall_loads(std::vector<Vec3>& forces, std::vector<Vec3>& torque
   torques.assign(nw, Vec3::Zero());
   if (lists_.wall_offset.size() != particles_.size() + 1) return;
   const ParticleStore& ps = particles_.arrays();
-  // The forces were evaluated where the spheres stood before the last drift, x - dt v
-  // (symplectic Euler: x_{n+1} = x_n + dt v_{n+1}): their moments are taken there.
-  std::vector<double> before(ps.x.begin(), ps.x.begin() + long(3 * particles_.size()));
-  if (run_.step > 0)
-    for (std::size_t k = 0; k < before.size(); ++k) before[k] -= run_.dt * ps.v[k];
-  measure_walls_now(before.data());
   const CompiledLaw& law = this->law();
+  // The forces were evaluated where the spheres and walls stood before the last step's drift:
+  // x - dt v (symplectic Euler: x_{n+1} = x_n + dt v_{n+1}) and each wall's centre less
+  // dt times its velocity. Each contact's moment about that centre is its force's at the
+  // sphere's centre plus the torque it put on the sphere (the lever c n x F_t and the rolling
+  // torque, as the step stored them), so no normal is measured again.
+  const double dt = run_.step > 0 ? run_.dt : 0.0;
   // Serial, in id order: the same digits whatever the thread count.
   particles_.for_each_id([&](Id, Index i) {
     for (Index e = lists_.wall_offset[i]; e < lists_.wall_offset[i + 1]; ++e) {
       if (!touching(law, contacts_.walls.overlap[e])) continue;
       const std::size_t w = std::size_t(lists_.wall_index[e]);
-      const Vec3 f = -vec3(contacts_.walls.force.data(), e);
-      const Plane& P = wall_plane_now(e);
-      const Vec3 at = vec3(before.data(), i) - contact_lever(ps.radius[i], contacts_.walls.overlap[e]) * P.normal;
-      forces[w] += f;
-      torques[w] += (at - walls_.plane(int(w)).center).cross(f);
-      if (!contacts_.walls.roll.empty())  // the rolling torque's reaction
-        torques[w] -= ps.radius[i] * vec3(contacts_.walls.roll.data(), e);
+      const Vec3 f = vec3(contacts_.walls.force.data(), e);
+      const Vec3 x = vec3(ps.x.data(), i) - dt * vec3(ps.v.data(), i);
+      const Plane& wall = walls_.plane(int(w));
+      const Vec3 center = wall.center - dt * wall.velocity;
+      Vec3 on_sphere = (x - center).cross(f);
+      if (!contacts_.walls.nxft.empty())
+        on_sphere -= contact_lever(ps.radius[i], contacts_.walls.overlap[e]) * vec3(contacts_.walls.nxft.data(), e);
+      if (!contacts_.walls.roll.empty()) on_sphere += ps.radius[i] * vec3(contacts_.walls.roll.data(), e);
+      forces[w] -= f;
+      torques[w] -= on_sphere;
     }
   });
 }
