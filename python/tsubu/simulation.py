@@ -1334,8 +1334,10 @@ class Simulation:
 
     @property
     def outlets(self) -> list:
-        """The outlets (:meth:`add_outlet`), each a dict: ``{"point", "normal"}`` (a plane; the
-        normal as a unit vector) or ``{"lo", "hi", "remove"}`` (a box)."""
+        """The outlets (:meth:`add_outlet`), each a dict, in the order added.
+
+        A plane has the keys ``point`` and ``normal`` (a unit vector), a box ``lo``, ``hi`` and
+        ``remove``."""
         out = []
         for o in self._core.outlets():
             if o["kind"] == 0:
