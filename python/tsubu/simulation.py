@@ -915,7 +915,8 @@ class Simulation:
         The file holds the spheres (positions, velocities, angular velocities, radii,
         materials, dissipated energy), the walls and their motion, the materials and pair
         overrides, the options, every touching contact's history and roughness state, the
-        step counter and time, the energy bookkeeping, the inserters' progress, and
+        step counter and time, the energy bookkeeping, the fixed spheres and their motion, the
+        outlets and the log of removed spheres (:meth:`removed`), the inserters' progress, and
         ``metadata`` (default :attr:`metadata`; any JSON-able dict). :meth:`load` gives a
         Simulation whose runs continue bit for bit as this one's would.
 
