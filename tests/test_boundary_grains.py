@@ -319,3 +319,45 @@ def test_bad_input_is_refused_naming_the_argument():
     with pytest.raises(ValueError, match="point must be finite"):
         sim.add_outlet(point=(math.inf, 0, 0), normal=(0, 0, 1))
     assert sim.outlets == [] and sim.size == 9 and sim.fixed.all()
+
+
+# ---- scene files ------------------------------------------------------------------------------
+
+def _scene(outlets, fixed_block: dict):
+    return {
+        "simulation": {"duration": 0.01, "dt": 2e-5},
+        "materials": {"m": {"density": 2500.0, "kn": 1e5, "restitution": 0.5}},
+        "particles": [
+            {"generator": "lattice", "material": "m", "radius": R, "fixed": True,
+             "region": {"shape": "box", "lower": [0, 0, 0], "upper": [0.06, 0.06, 0.02]},
+             **fixed_block},
+            {"generator": "lattice", "material": "m", "radius": R,
+             "region": {"shape": "box", "lower": [0, 0, 0.03], "upper": [0.06, 0.06, 0.05]}},
+        ],
+        "outlets": outlets,
+    }
+
+
+def test_a_scene_file_fixes_a_block_and_adds_outlets(tmp_path):
+    from tsubu.scene import scene_from_dict
+
+    scene = scene_from_dict(_scene([{"shape": "plane", "point": [0, 0, -0.5], "normal": [0, 0, 1]},
+                                    {"shape": "box", "lo": [1, 1, 1], "hi": [2, 2, 2],
+                                     "remove": "inside"}],
+                                   {"velocity": [0.1, 0, 0]}), tmp_path, output_directory=tmp_path)
+    sim = scene.simulation
+    assert sim.fixed.tolist() == [True] * 9 + [False] * 9
+    assert np.all(sim.velocities[:9] == [0.1, 0, 0])
+    assert sim.outlets == [{"point": (0.0, 0.0, -0.5), "normal": (0.0, 0.0, 1.0)},
+                           {"lo": (1.0, 1.0, 1.0), "hi": (2.0, 2.0, 2.0), "remove": "inside"}]
+    scene.run()
+    assert np.all(sim.velocities[:9] == [0.1, 0, 0])
+
+
+def test_a_scene_file_reports_a_bad_outlet_at_its_path(tmp_path):
+    from tsubu.scene import SceneError, scene_from_dict
+
+    with pytest.raises(SceneError, match=r"outlets\[0\]\.lo = \[0\.0, 0\.0, 1\.0\]: must be <= hi"):
+        scene_from_dict(_scene([{"shape": "box", "lo": [0, 0, 1], "hi": [1, 1, 0]}], {}), tmp_path)
+    with pytest.raises(SceneError, match=r"outlets\[0\]\.shape"):
+        scene_from_dict(_scene([{"shape": "cone", "lo": [0, 0, 0], "hi": [1, 1, 1]}], {}), tmp_path)
