@@ -52,6 +52,12 @@ def _pyevtk_vtk():
 
 # ---- the arrays --------------------------------------------------------------------------------
 
+def _ids(sim) -> np.ndarray:
+    """Each row's sphere id (``sim.ids``; row = id for an object without them)."""
+    ids = getattr(sim, "ids", None)
+    return np.arange(sim.size, dtype=np.int64) if ids is None else np.asarray(ids, dtype=np.int64)
+
+
 def _coordination(ids: np.ndarray, contacts: dict) -> np.ndarray:
     """Contacts per sphere (rows of ``ids``): a pair counts for both spheres, a wall contact for
     its sphere."""
@@ -73,7 +79,7 @@ def particle_data(sim, contacts: dict | None = None) -> dict:
     ``contacts``: the dict of ``sim.contacts()`` when already at hand.
     """
     contacts = sim.contacts() if contacts is None else contacts
-    ids = np.array(sim.ids)
+    ids = np.array(_ids(sim))
     return {
         "id": ids,
         "position": sim.positions,
@@ -110,7 +116,7 @@ def contact_data(sim, contacts: dict | None = None, positions=None) -> dict:
     j = np.asarray(contacts["j"], dtype=np.int64)
     wall = np.asarray(contacts["wall"], dtype=np.int64)
     force = np.asarray(contacts["force"], dtype=np.float64).reshape(-1, 3)
-    ids = sim.ids  # contacts name ids; the positions are by row
+    ids = _ids(sim)  # contacts name ids; the positions are by row
     start = x[np.searchsorted(ids, i)]
     end = x[np.searchsorted(ids, np.maximum(j, 0))]
     walls = np.flatnonzero(j < 0)
