@@ -97,6 +97,80 @@ void register_simulation(py::class_<Sim>& cls) {
           },
           "point"_a, "normal"_a, "material"_a, "velocity"_a, "angular_velocity"_a)
       .def(
+          "add_plane",
+          [](Sim& s, std::array<double, 3> point, std::array<double, 3> normal, int mat,
+             std::array<double, 3> vel, std::array<double, 3> angvel, std::array<double, 3> center) {
+            return s.add_plane(to_vec3(point), to_vec3(normal), mat, to_vec3(vel), to_vec3(angvel),
+                               to_vec3(center));
+          },
+          "point"_a, "normal"_a, "material"_a, "velocity"_a, "angular_velocity"_a, "center"_a)
+      .def(
+          "add_mesh",
+          [](Sim& s, const py::array_t<double, py::array::c_style | py::array::forcecast>& vertices,
+             const py::array_t<std::int64_t, py::array::c_style | py::array::forcecast>& faces, int mat,
+             std::array<double, 3> vel, std::array<double, 3> angvel, std::array<double, 3> center) {
+            if (vertices.ndim() != 2 || vertices.shape(1) != 3) throw py::value_error("vertices must have shape (V, 3)");
+            if (faces.ndim() != 2 || faces.shape(1) != 3) throw py::value_error("faces must have shape (F, 3)");
+            std::vector<tsubu::Vec3> v(static_cast<std::size_t>(vertices.shape(0)));
+            for (std::size_t k = 0; k < v.size(); ++k)
+              v[k] = tsubu::Vec3(vertices.at(k, 0), vertices.at(k, 1), vertices.at(k, 2));
+            std::vector<tsubu::Mesh::Face> f(static_cast<std::size_t>(faces.shape(0)));
+            for (std::size_t k = 0; k < f.size(); ++k)
+              for (std::size_t j = 0; j < 3; ++j) {
+                const std::int64_t idx = faces.at(k, j);
+                if (idx < 0 || idx >= std::int64_t(v.size()))
+                  throw py::value_error("faces: triangle " + std::to_string(k) + " names vertex " + std::to_string(idx) +
+                                        "; there are " + std::to_string(v.size()));
+                f[k][j] = static_cast<tsubu::Index>(idx);
+              }
+            return s.add_mesh(v, f, mat, to_vec3(vel), to_vec3(angvel), to_vec3(center));
+          },
+          "vertices"_a, "faces"_a, "material"_a, "velocity"_a, "angular_velocity"_a, "center"_a)
+      .def("set_wall_center",
+           [](Sim& s, int wall, std::array<double, 3> c) { s.set_wall_center(wall, to_vec3(c)); }, "wall"_a,
+           "center"_a)
+      .def("remove_wall", &Sim::remove_wall, "wall"_a)
+      .def(
+          "wall",
+          [](const Sim& s, int wall) {
+            const tsubu::Plane& p = s.plane(wall);
+            const bool mesh = s.walls().kind(wall) == tsubu::Walls::kMesh;
+            py::dict d("kind"_a = mesh ? "mesh" : "plane", "center"_a = from_vec3(p.center),
+                       "velocity"_a = from_vec3(p.velocity), "angular_velocity"_a = from_vec3(p.angular_velocity),
+                       "material"_a = p.material, "removed"_a = s.walls().removed(wall));
+            if (!mesh) {
+              d["point"] = from_vec3(p.point);
+              d["normal"] = from_vec3(p.normal);
+              return d;
+            }
+            const tsubu::Mesh& m = s.walls().mesh(wall);
+            const std::vector<tsubu::Vec3> v = m.world_vertices();
+            py::array_t<double> vertices({py::ssize_t(v.size()), py::ssize_t(3)});
+            auto pv = vertices.mutable_unchecked<2>();
+            for (std::size_t k = 0; k < v.size(); ++k)
+              for (int c = 0; c < 3; ++c) pv(py::ssize_t(k), c) = v[k][c];
+            py::array_t<std::int64_t> faces({py::ssize_t(m.triangles()), py::ssize_t(3)});
+            auto pf = faces.mutable_unchecked<2>();
+            for (std::size_t k = 0; k < m.faces().size(); ++k)
+              for (int c = 0; c < 3; ++c) pf(py::ssize_t(k), c) = m.faces()[k][std::size_t(c)];
+            d["vertices"] = vertices;
+            d["faces"] = faces;
+            return d;
+          },
+          "wall"_a)
+      .def("wall_loads",
+           [](const Sim& s) {
+             std::vector<tsubu::Vec3> f, t;
+             s.wall_loads(f, t);
+             py::array_t<double> forces({py::ssize_t(f.size()), py::ssize_t(3)}),
+                 torques({py::ssize_t(f.size()), py::ssize_t(3)});
+             auto pf = forces.mutable_unchecked<2>();
+             auto pt = torques.mutable_unchecked<2>();
+             for (std::size_t k = 0; k < f.size(); ++k)
+               for (int c = 0; c < 3; ++c) pf(py::ssize_t(k), c) = f[k][c], pt(py::ssize_t(k), c) = t[k][c];
+             return py::make_tuple(forces, torques);
+           })
+      .def(
           "set_plane_motion",
           [](Sim& s, int wall, std::array<double, 3> vel, std::array<double, 3> angvel) {
             s.set_plane_motion(wall, to_vec3(vel), to_vec3(angvel));

@@ -28,30 +28,34 @@ py::dict contacts_dict(const Sim& s) {
   const auto list = s.contacts();
   const std::size_t m = list.size();
   py::array_t<std::int64_t> i(m), j(m);
-  py::array_t<int> wall(m);
+  py::array_t<int> wall(m), element(m);
   Array overlap(m);
-  Array force = new_n3(m), torque = new_n3(m), xi = new_n3(m);
+  Array force = new_n3(m), torque = new_n3(m), xi = new_n3(m), wall_point = new_n3(m);
   auto pi = i.mutable_unchecked<1>();
   auto pj = j.mutable_unchecked<1>();
   auto pw = wall.mutable_unchecked<1>();
+  auto pe = element.mutable_unchecked<1>();
   auto po = overlap.mutable_unchecked<1>();
   auto pf = force.mutable_unchecked<2>();
   auto pt = torque.mutable_unchecked<2>();
   auto px = xi.mutable_unchecked<2>();
+  auto pp = wall_point.mutable_unchecked<2>();
   for (std::size_t k = 0; k < m; ++k) {
     const auto& c = list[k];
     pi(k) = c.i;
     pj(k) = c.j;
     pw(k) = c.wall;
+    pe(k) = c.element;
     po(k) = c.overlap;
     for (int d = 0; d < 3; ++d) {
       pf(k, d) = c.force[d];
       pt(k, d) = c.torque_i[d];
       px(k, d) = c.tangential_displacement[d];
+      pp(k, d) = c.wall_point[d];
     }
   }
-  return py::dict("i"_a = i, "j"_a = j, "wall"_a = wall, "overlap"_a = overlap, "force"_a = force,
-                  "torque_i"_a = torque, "tangential_displacement"_a = xi);
+  return py::dict("i"_a = i, "j"_a = j, "wall"_a = wall, "element"_a = element, "overlap"_a = overlap, "force"_a = force,
+                  "torque_i"_a = torque, "tangential_displacement"_a = xi, "wall_point"_a = wall_point);
 }
 
 // numpy (N, 3) input, checked against the number of spheres, to one of the set_* functions.
@@ -99,8 +103,11 @@ py::dict contact_state_dict(const Sim& s, bool walls) {
     values.append(a);
     widths.append(c.widths[k]);
   }
-  return py::dict("owner"_a = Ids(m, c.owner.data()), "partner"_a = Ids(m, c.partner.data()),
-                  "values"_a = values, "widths"_a = widths);
+  const std::vector<std::int64_t> element(c.element.begin(), c.element.end());
+  py::dict d("owner"_a = Ids(m, c.owner.data()), "partner"_a = Ids(m, c.partner.data()),
+             "values"_a = values, "widths"_a = widths);
+  if (walls) d["element"] = Ids(m, element.data());
+  return d;
 }
 
 Sim::ContactState contact_state_from(const py::dict& d) {
@@ -108,6 +115,10 @@ Sim::ContactState contact_state_from(const py::dict& d) {
   const Ids owner = d["owner"].cast<Ids>(), partner = d["partner"].cast<Ids>();
   c.owner.assign(owner.data(), owner.data() + owner.size());
   c.partner.assign(partner.data(), partner.data() + partner.size());
+  if (d.contains("element")) {
+    const Ids element = d["element"].cast<Ids>();
+    c.element.assign(element.data(), element.data() + element.size());
+  }
   const auto values = d["values"].cast<std::vector<Array>>();
   const auto widths = d["widths"].cast<std::vector<int>>();
   if (values.size() != c.values.size() || widths.size() != c.widths.size())
@@ -216,6 +227,7 @@ void register_state(py::class_<Sim>& cls) {
              p.normal = to_vec3(normal);
              p.velocity = to_vec3(velocity);
              p.angular_velocity = to_vec3(angular_velocity);
+             p.center = p.point;  // (these files' planes turn about their points)
              p.material = material;
              s.set_plane_state(wall, p);
            });

@@ -105,6 +105,7 @@ Simulation::ContactState Simulation::contact_state(bool walls) const {
   auto keep = [&](Id owner, Id partner, Index e) {
     c.owner.push_back(owner);
     c.partner.push_back(partner);
+    if (walls) c.element.push_back(lists_.wall_element[e]);
     for (std::size_t k = 0; k < EntryStore::kFields; ++k) {
       const double* from = arrays[k]->data() + c.widths[k] * e;
       c.values[k].insert(c.values[k].end(), from, from + c.widths[k]);
@@ -130,6 +131,7 @@ void Simulation::set_contact_state(const ContactState& pairs, const ContactState
     const auto widths = EntryStore::widths(w ? contacts_.wall_shape : contacts_.pair_shape);
     const std::size_t m = c.owner.size();
     require(c.partner.size() == m, "owner and partner counts differ");
+    require(c.element.empty() || c.element.size() == m, "owner and element counts differ");
     for (std::size_t k = 0; k < EntryStore::kFields; ++k) {
       const int need = widths[k];
       require(m == 0 || c.widths[k] == need,
@@ -161,9 +163,13 @@ void Simulation::set_contact_state(const ContactState& pairs, const ContactState
   for (std::size_t e = 0; e < walls.owner.size(); ++e) {
     const Index i = particles_.index(walls.owner[e]);
     Index q = lists_.wall_offset[i];
-    while (q < lists_.wall_offset[i + 1] && lists_.wall_index[q] != walls.partner[e]) ++q;
+    const Index element = walls.element.empty() ? 0 : walls.element[e];
+    while (q < lists_.wall_offset[i + 1] &&
+           (lists_.wall_index[q] != walls.partner[e] || lists_.wall_element[q] != element))
+      ++q;
     require(q < lists_.wall_offset[i + 1], "sphere " + std::to_string(walls.owner[e]) +
-                                         " is not near wall " + std::to_string(walls.partner[e]));
+                                         " is not near wall " + std::to_string(walls.partner[e]) +
+                                         " (element " + std::to_string(element) + ")");
     put(contacts_.walls, walls, e, q);
   }
   lists_.finish_restore(list_context());  // the near-wall subset now includes the touching walls
@@ -401,8 +407,8 @@ void Simulation::save(std::ostream& out) const {
   section("wall_contacts", [&](archive::Writer& w) {
     const ContactState c = contact_state(true);
     c.save(w);
-    // The element of each wall contact (a plane has one: 0), for the wall kinds made of many.
-    w.integers("element", std::vector<std::int64_t>(c.owner.size(), 0));
+    // The element of each wall contact (a plane has one: 0; a mesh, a triangle).
+    w.integers("element", std::vector<std::int64_t>(c.element.begin(), c.element.end()));
   });
   section("run", [&](archive::Writer& w) { run_state().save(w); });
   // (Optional: written only for a scene with fixed spheres, outlets or removed spheres, so that
@@ -486,8 +492,15 @@ Simulation Simulation::load(std::istream& in) {
     contacts[w].restore(r);
     if (w == 1) {
       const std::vector<std::int64_t> element = r.integers("element", contacts[w].owner.size());
-      for (std::int64_t e : element)
-        if (e != 0) r.fail("a contact with wall element " + std::to_string(e) + " (planes have one: 0)");
+      for (std::size_t k = 0; k < element.size(); ++k) {
+        const std::int64_t wall = contacts[w].partner[k];
+        const bool mesh = wall >= 0 && wall < s.plane_count() && s.walls_.kind(int(wall)) == Walls::kMesh;
+        const std::int64_t most = mesh ? s.walls_.mesh(int(wall)).triangles() : 1;
+        if (element[k] < 0 || element[k] >= most)
+          r.fail("a contact with wall " + std::to_string(wall) + "'s element " + std::to_string(element[k]) +
+                 " (it has " + std::to_string(most) + ")");
+        contacts[w].element.push_back(static_cast<Index>(element[k]));
+      }
     }
     r.finish();
   }

@@ -65,11 +65,11 @@ void Simulation::check_overlaps(bool all) const {
       const int w = lists_.wall_index[e];
       const bool new_wall = !all && w >= walls_checked_;
       if (!all && slot[i] < 0 && !new_wall) continue;
-      const Plane& p = walls_.plane(w);
-      const double ov = p.overlap(x(i), a.radius[i]);
+      const Index element = lists_.wall_element[e];
+      const double ov = walls_.overlap(x(i), a.radius[i], w, element);
       if (!(ov > tol * a.radius[i])) continue;
       if (!all && !new_wall && !added(i) &&
-          ov <= p.overlap(before(i), a.radius[i]) + kDeeper * a.radius[i])
+          ov <= walls_.overlap(before(i), a.radius[i], w, element) + kDeeper * a.radius[i])
         continue;
       throw InvalidArgument("initial overlap: sphere " + std::to_string(a.id[i]) + " overlaps wall " +
                             std::to_string(w) + " by " + fmt(ov) + " m (" + fmt(ov / a.radius[i]) +

@@ -30,6 +30,7 @@ Energy Simulation::energy_now() const {
   // the velocity before its force acts, conserves the form with the opposite sign.
   double power = 0;
   for (std::size_t i = 0; i < particles_.size(); ++i) power += particles_.arrays().mass[i] * opt_.gravity.dot(vec3(v, i));
+  measure_walls_now();
   // The tangential velocity of the contact points (1.12), levers c = r - overlap/2 (wall: cj = 0).
   auto slip = [&](const Vec3& n, const Vec3& vrel, const Vec3& spin_lever) {
     return Vec3(vrel - vrel.dot(n) * n - spin_lever.cross(n));
@@ -54,7 +55,7 @@ Energy Simulation::energy_now() const {
       power += law.tangential_stiffness(p, h) * Vec3(h[0], h[1], h[2]).dot(slip(n, vrel, lever));
     }
     for (Index k = lists_.wall_offset[i]; k < lists_.wall_offset[i + 1]; ++k) {
-      const Plane& P = walls_.plane(lists_.wall_index[k]);
+      const Plane& P = wall_plane_now(k);
       const double delta = P.overlap(vec3(x, i), particles_.arrays().radius[i]);
       if (!(delta > 0) && !(law.sticky && contacts_.walls.touch[k])) continue;
       const PairParams& p = pairs_(particles_.arrays().material[i], P.material);
@@ -194,10 +195,11 @@ std::vector<ContactInfo> Simulation::contacts() const {
     return width > 3 && !xi.empty() ? xi[width * e + 3] : 0.0;
   };
   const double* r = particles_.arrays().radius.data();
+  measure_walls_now();
   for (std::size_t i = 0; i < particles_.size(); ++i) {
     for (Index e = lists_.near_offset[i]; e < lists_.near_offset[i + 1]; ++e) {
       if (!touching(law, contacts_.pairs.overlap[e])) continue;
-      out.push_back({particles_.arrays().id[i], particles_.arrays().id[lists_.near_partner[e]], -1, contacts_.pairs.overlap[e],
+      out.push_back({particles_.arrays().id[i], particles_.arrays().id[lists_.near_partner[e]], -1, -1, contacts_.pairs.overlap[e],
                      vec3(contacts_.pairs.force.data(), e),
                      torque(contacts_.pairs.nxft, contacts_.pairs.roll, particles_.arrays().radius[i], contacts_.pairs.overlap[e], e),
                      history(contacts_.pairs.xi, e), r[i] * r[lists_.near_partner[e]] / (r[i] + r[lists_.near_partner[e]]),
@@ -205,14 +207,58 @@ std::vector<ContactInfo> Simulation::contacts() const {
     }
     for (Index e = lists_.wall_offset[i]; e < lists_.wall_offset[i + 1]; ++e) {
       if (!touching(law, contacts_.walls.overlap[e])) continue;
-      out.push_back({particles_.arrays().id[i], -1, lists_.wall_index[e], contacts_.walls.overlap[e], vec3(contacts_.walls.force.data(), e),
+      out.push_back({particles_.arrays().id[i], -1, lists_.wall_index[e], lists_.wall_element[e], contacts_.walls.overlap[e], vec3(contacts_.walls.force.data(), e),
                      torque(contacts_.walls.nxft, contacts_.walls.roll, particles_.arrays().radius[i], contacts_.walls.overlap[e], e),
                      history(contacts_.walls.xi, e), r[i], size(contacts_.walls.xi, e)});
+      const Plane& P = wall_plane_now(e);
+      const Vec3 x = vec3(particles_.arrays().x.data(), i);
+      out.back().wall_point = x - P.distance(x) * P.normal;
     }
   }
   std::sort(out.begin(), out.end(), [](const ContactInfo& a, const ContactInfo& b) {
-    return a.i != b.i ? a.i < b.i : (a.wall != b.wall ? a.wall < b.wall : a.j < b.j);
+    return a.i != b.i ? a.i < b.i : (a.wall != b.wall ? a.wall < b.wall : a.element != b.element ? a.element < b.element : a.j < b.j);
   });
   return out;
+}
+
+void Simulation::measure_walls_now() const {
+  if (!walls_.has_meshes() || lists_.wall_offset.size() != particles_.size() + 1) return;
+  const std::size_t count = lists_.wall_index.size();
+  wall_planes_.resize(count);
+  if (wall_entries_.size() != count) {
+    wall_entries_.resize(count);
+    for (std::size_t e = 0; e < count; ++e) wall_entries_[e] = static_cast<Index>(e);
+  }
+  const ParticleStore& ps = particles_.arrays();
+  for (std::size_t i = 0; i < particles_.size(); ++i) {
+    const Index lo = lists_.wall_offset[i], hi = lists_.wall_offset[i + 1];
+    if (hi > lo)
+      walls_.measure(vec3(ps.x.data(), i), ps.radius[i], lists_.wall_index.data(), lists_.wall_element.data(),
+                     wall_entries_.data() + lo, int(hi - lo), wall_planes_.data());
+  }
+}
+
+void Simulation::wall_loads(std::vector<Vec3>& forces, std::vector<Vec3>& torques) const {
+  const std::size_t nw = static_cast<std::size_t>(walls_.count());
+  forces.assign(nw, Vec3::Zero());
+  torques.assign(nw, Vec3::Zero());
+  if (lists_.wall_offset.size() != particles_.size() + 1) return;
+  measure_walls_now();
+  const ParticleStore& ps = particles_.arrays();
+  const CompiledLaw& law = this->law();
+  // Serial, in id order: the same digits whatever the thread count.
+  particles_.for_each_id([&](Id, Index i) {
+    for (Index e = lists_.wall_offset[i]; e < lists_.wall_offset[i + 1]; ++e) {
+      if (!touching(law, contacts_.walls.overlap[e])) continue;
+      const std::size_t w = std::size_t(lists_.wall_index[e]);
+      const Vec3 f = -vec3(contacts_.walls.force.data(), e);
+      const Plane& P = wall_plane_now(e);
+      const Vec3 at = vec3(ps.x.data(), i) - contact_lever(ps.radius[i], contacts_.walls.overlap[e]) * P.normal;
+      forces[w] += f;
+      torques[w] += (at - walls_.plane(int(w)).center).cross(f);
+      if (!contacts_.walls.roll.empty())  // the rolling torque's reaction
+        torques[w] -= ps.radius[i] * vec3(contacts_.walls.roll.data(), e);
+    }
+  });
 }
 }  // namespace tsubu

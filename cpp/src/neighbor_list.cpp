@@ -144,6 +144,8 @@ void NeighborList::build_walls(const Context& c, double skin_now, bool transfer,
   }
   ContactStore& cs = c.contacts;
   cs.size(near_partner.size(), wall_index.size());
+  if (c.walls.has_meshes()) wall_tangent.resize(wall_index.size());
+  else wall_tangent.clear();
   for (Array<double>* a : cs.walls.carried()) std::fill(a->begin(), a->end(), 0.0);
   if (transfer) {  // wall contact state, by (id, wall, element)
     const auto width = EntryStore::widths(cs.wall_shape);

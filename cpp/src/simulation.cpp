@@ -165,8 +165,14 @@ Id Simulation::add_sphere(const Vec3& position, double radius, int material,
 
 int Simulation::add_plane(const Vec3& point, const Vec3& normal, int material_index,
                           const Vec3& velocity, const Vec3& angular_velocity) {
+  return add_plane(point, normal, material_index, velocity, angular_velocity, point);
+}
+
+int Simulation::add_plane(const Vec3& point, const Vec3& normal, int material_index,
+                          const Vec3& velocity, const Vec3& angular_velocity, const Vec3& center) {
   energy_ref_valid_ = false;
   require(point.allFinite(), "plane point is not finite");
+  require(center.allFinite(), "plane center is not finite");
   require(normal.allFinite() && normal.norm() > 0, "plane normal must be a non-zero finite vector");
   require(velocity.allFinite() && angular_velocity.allFinite(), "plane motion is not finite");
   require(velocity.norm() <= kMaxWallSpeed, [&] { return wall_too_fast(velocity.norm()); });
@@ -176,10 +182,60 @@ int Simulation::add_plane(const Vec3& point, const Vec3& normal, int material_in
   p.normal = normal.normalized();
   p.velocity = velocity;
   p.angular_velocity = angular_velocity;
+  p.center = center;
   p.material = material_index;
   const int index = walls_.add(p);
   lists_.valid = false;
   return index;
+}
+
+int Simulation::add_mesh(const std::vector<Vec3>& vertices, const std::vector<Mesh::Face>& faces,
+                         int material_index, const Vec3& velocity, const Vec3& angular_velocity,
+                         const Vec3& center) {
+  require(!faces.empty(), "a mesh needs at least one triangle");
+  for (std::size_t v = 0; v < vertices.size(); ++v)
+    require(vertices[v].allFinite(), [&] { return "mesh vertex " + std::to_string(v) + " is not finite"; });
+  const Index nv = static_cast<Index>(vertices.size());
+  for (std::size_t t = 0; t < faces.size(); ++t) {
+    const Mesh::Face& f = faces[t];
+    for (Index k : f)
+      require(k >= 0 && k < nv, [&] {
+        return "mesh triangle " + std::to_string(t) + " names vertex " + std::to_string(k) + "; there are " +
+               std::to_string(nv);
+      });
+    const Vec3 &a = vertices[std::size_t(f[0])], &b = vertices[std::size_t(f[1])], &c = vertices[std::size_t(f[2])];
+    const double longest = std::max({(b - a).squaredNorm(), (c - b).squaredNorm(), (a - c).squaredNorm()});
+    require(f[0] != f[1] && f[1] != f[2] && f[0] != f[2] && (b - a).cross(c - a).norm() > 1e-12 * longest &&
+                longest > 0,
+            [&] { return "mesh triangle " + std::to_string(t) + " is degenerate (no area)"; });
+  }
+  require(center.allFinite(), "mesh center is not finite");
+  require(velocity.allFinite() && angular_velocity.allFinite(), "mesh motion is not finite");
+  require(velocity.norm() <= kMaxWallSpeed, [&] { return wall_too_fast(velocity.norm()); });
+  material(material_index);
+  energy_ref_valid_ = false;
+  Plane motion;
+  motion.velocity = velocity;
+  motion.angular_velocity = angular_velocity;
+  motion.material = material_index;
+  const int index = walls_.add_mesh(Mesh(vertices, faces, center), motion);
+  lists_.valid = false;
+  return index;
+}
+
+void Simulation::set_wall_center(int wall, const Vec3& center) {
+  require(wall >= 0 && wall < plane_count(), "no wall " + std::to_string(wall));
+  require(center.allFinite(), "wall center is not finite");
+  energy_ref_valid_ = false;
+  walls_.set_center(wall, center);
+  lists_.valid = false;
+}
+
+void Simulation::remove_wall(int wall) {
+  require(wall >= 0 && wall < plane_count(), "no wall " + std::to_string(wall));
+  energy_ref_valid_ = false;
+  walls_.remove(wall);
+  lists_.valid = false;
 }
 
 void Simulation::set_plane_motion(int wall, const Vec3& velocity, const Vec3& angular_velocity) {
@@ -377,7 +433,7 @@ void Simulation::check_wall_speeds() const {
     if (spin == 0) continue;
     double reach = 0;  // the farthest sphere from the wall's centre of rotation
     for (std::size_t i = 0; i < particles_.size(); ++i)
-      reach = std::max(reach, (vec3(ps.x.data(), i) - p.point).norm());
+      reach = std::max(reach, (vec3(ps.x.data(), i) - p.center).norm());
     const double speed = p.velocity.norm() + spin * reach;
     require(speed <= kMaxWallSpeed, [&] {
       return "wall " + std::to_string(k) + " turns at " + fmt(spin) + " rad/s about a point " +

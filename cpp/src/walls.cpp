@@ -7,34 +7,112 @@
 
 namespace tsubu {
 
-int Walls::add(const Plane& p) {
+int Walls::append(const Plane& p, Kind kind, int slot) {
   planes_.push_back(p);
+  kind_.push_back(kind);
+  removed_.push_back(0);
+  slot_.push_back(slot);
   return count() - 1;
 }
+
+int Walls::add(const Plane& p) { return append(p, kPlane, -1); }
+
+int Walls::add_mesh(Mesh mesh, const Plane& motion) {
+  Plane record = motion;
+  record.point = record.center = mesh.center();
+  record.normal = Vec3(0, 0, 1);
+  meshes_.push_back(std::move(mesh));
+  return append(record, kMesh, static_cast<int>(meshes_.size()) - 1);
+}
+
+void Walls::remove(int wall) { removed_[static_cast<std::size_t>(wall)] = 1; }
 
 void Walls::set_motion(int wall, const Vec3& velocity, const Vec3& angular_velocity) {
   planes_[static_cast<std::size_t>(wall)].velocity = velocity;
   planes_[static_cast<std::size_t>(wall)].angular_velocity = angular_velocity;
 }
 
+void Walls::set_center(int wall, const Vec3& center) {
+  const std::size_t w = static_cast<std::size_t>(wall);
+  planes_[w].center = center;
+  if (kind_[w] == kMesh) {
+    meshes_[std::size_t(slot_[w])].set_center(center);
+    planes_[w].point = center;
+  }
+}
+
 bool Walls::moving() const {
-  for (const Plane& p : planes_)
-    if (p.moving()) return true;
+  for (std::size_t w = 0; w < planes_.size(); ++w)
+    if (!removed_[w] && planes_[w].moving()) return true;
   return false;
 }
 
 void Walls::advance(double dt) {
-  for (Plane& p : planes_) p.advance(dt);
+  for (std::size_t w = 0; w < planes_.size(); ++w) {
+    if (removed_[w]) continue;
+    Plane& p = planes_[w];
+    p.advance(dt);
+    if (kind_[w] == kMesh) meshes_[std::size_t(slot_[w])].advance(dt, p.velocity, p.angular_velocity);
+  }
+}
+
+void Walls::measure(const Vec3& x, double r, const Index* wall, const Index* element, const Index* entries,
+                    int n, Plane* tangent) const {
+  thread_local std::vector<MeshFeature> feature;
+  thread_local std::vector<std::uint8_t> live;
+  feature.resize(std::size_t(n));
+  live.assign(std::size_t(n), 0);
+  bool any = false;
+  for (int k = 0; k < n; ++k) {
+    const Index e = entries[k];
+    const std::size_t w = std::size_t(wall[e]);
+    Plane& T = tangent[e];
+    T = planes_[w];
+    if (kind_[w] != kMesh) continue;
+    const MeshPoint m = meshes_[std::size_t(slot_[w])].nearest(x, element[e]);
+    T.point = m.point;
+    T.normal = m.normal;
+    feature[std::size_t(k)] = m.feature;
+    live[std::size_t(k)] = m.distance < r;
+    any = any || live[std::size_t(k)];
+  }
+  if (!any) return;
+  // Hide what a smooth surface does not have. An edge or vertex is a contact only where it is
+  // the nearest point of every touching triangle that holds it (a convex edge or corner); where
+  // one of them has a nearer point of its own (its face, another edge), the sphere presses that
+  // instead. Of the triangles that share one nearest edge or vertex, the first keeps it; of two
+  // coplanar neighbours that both see their face (the centre over their shared edge), the first.
+  for (int k = 0; k < n; ++k) {
+    if (!live[std::size_t(k)]) continue;
+    const Index ek = entries[k], w = wall[ek];
+    const Mesh& mesh = meshes_[std::size_t(slot_[std::size_t(w)])];
+    const MeshFeature& f = feature[std::size_t(k)];
+    bool hidden = false;
+    for (int j = 0; j < n && !hidden; ++j) {
+      if (j == k || !live[std::size_t(j)] || wall[entries[j]] != w) continue;
+      const Index tj = element[entries[j]];
+      const MeshFeature& g = feature[std::size_t(j)];
+      if (f.kind == MeshFeature::kFace)
+        hidden = g.kind == MeshFeature::kFace && j < k && mesh.adjacent(tj, element[ek]) &&
+                 tangent[entries[j]].normal.dot(tangent[ek].normal) > 1 - 1e-12;
+      else
+        hidden = mesh.has(tj, f) && (!(g == f) || j < k);
+    }
+    if (hidden) tangent[ek].point = x - (2 * r + 1) * tangent[ek].normal;  // clear of the sphere
+  }
 }
 
 void Walls::mark(const Vec3& lo, const Vec3& hi) {
   const std::size_t nw = planes_.size();
   point_ref_.resize(nw);
   normal_ref_.resize(nw);
+  orientation_ref_.resize(nw);
   reach_ = 0;
   for (std::size_t w = 0; w < nw; ++w) {
     point_ref_[w] = planes_[w].point;
     normal_ref_[w] = planes_[w].normal;
+    orientation_ref_[w] = kind_[w] == kMesh ? meshes_[std::size_t(slot_[w])].orientation()
+                                            : Mesh::Orientation{1, 0, 0, 0};
     for (int corner = 0; corner < 8; ++corner) {
       const Vec3 c((corner & 1) ? hi.x() : lo.x(), (corner & 2) ? hi.y() : lo.y(),
                    (corner & 4) ? hi.z() : lo.z());
@@ -46,24 +124,31 @@ void Walls::mark(const Vec3& lo, const Vec3& hi) {
 bool Walls::moved_beyond(double moved, double skin) const {
   for (std::size_t w = 0; w < planes_.size(); ++w) {
     const Plane& p = planes_[w];
-    if (!p.moving()) continue;
-    const double shift = p.shift_since(point_ref_[w], normal_ref_[w], reach_ + skin);
+    if (removed_[w] || !p.moving()) continue;
+    const double shift = kind_[w] == kMesh
+                             ? meshes_[std::size_t(slot_[w])].shift_since(point_ref_[w], orientation_ref_[w], reach_ + skin)
+                             : p.shift_since(point_ref_[w], normal_ref_[w], reach_ + skin);
     if (moved + shift > skin) return true;
   }
   return false;
 }
 
 std::size_t Walls::bytes() const {
-  return planes_.capacity() * sizeof(Plane) + (point_ref_.capacity() + normal_ref_.capacity()) * sizeof(Vec3);
+  std::size_t b = planes_.capacity() * sizeof(Plane) + (point_ref_.capacity() + normal_ref_.capacity()) * sizeof(Vec3) +
+                  orientation_ref_.capacity() * sizeof(Mesh::Orientation) +
+                  (kind_.capacity() + removed_.capacity()) + slot_.capacity() * sizeof(int);
+  for (const Mesh& m : meshes_) b += m.bytes();
+  return b;
 }
 
 // ---- checkpoints ------------------------------------------------------------------------------
 
 void Walls::save(archive::Writer& w) const {
   const std::size_t n = planes_.size();
-  std::vector<double> point, normal, velocity, spin;
-  std::vector<std::int64_t> material;
+  std::vector<double> point, normal, velocity, spin, center;
+  std::vector<std::int64_t> material, kind(kind_.begin(), kind_.end()), removed(removed_.begin(), removed_.end());
   for (const Plane& p : planes_) {
+    center.insert(center.end(), p.center.data(), p.center.data() + 3);
     point.insert(point.end(), p.point.data(), p.point.data() + 3);
     normal.insert(normal.end(), p.normal.data(), p.normal.data() + 3);
     velocity.insert(velocity.end(), p.velocity.data(), p.velocity.data() + 3);
@@ -76,6 +161,15 @@ void Walls::save(archive::Writer& w) const {
   w.reals("velocity", velocity);
   w.reals("angular_velocity", spin);
   w.integers("material", material);
+  w.reals("center", center);
+  w.integers("kind", kind);
+  w.integers("removed", removed);
+  for (std::size_t k = 0; k < n; ++k) {
+    if (kind_[k] != kMesh) continue;
+    archive::Writer m;
+    meshes_[std::size_t(slot_[k])].save(m);
+    w.section("mesh", m);
+  }
 }
 
 void Walls::restore(archive::Reader& r, int materials) {
@@ -86,6 +180,10 @@ void Walls::restore(archive::Reader& r, int materials) {
   const std::vector<double> point = r.reals("point", 3 * n), normal = r.reals("normal", 3 * n),
                             velocity = r.reals("velocity", 3 * n), spin = r.reals("angular_velocity", 3 * n);
   const std::vector<std::int64_t> material = r.integers("material", n);
+  // (Checkpoints before meshes: planes turning about their points.)
+  const std::vector<double> center = r.next_is("center") ? r.reals("center", 3 * n) : point;
+  const std::vector<std::int64_t> kind = r.next_is("kind") ? r.integers("kind", n) : std::vector<std::int64_t>(n, kPlane);
+  const std::vector<std::int64_t> removed = r.next_is("removed") ? r.integers("removed", n) : std::vector<std::int64_t>(n, 0);
   for (std::size_t k = 0; k < n; ++k) {
     Plane p;
     p.point = Vec3(point[3 * k], point[3 * k + 1], point[3 * k + 2]);
@@ -99,7 +197,20 @@ void Walls::restore(archive::Reader& r, int materials) {
       r.fail("wall " + std::to_string(k) + " names material " + std::to_string(material[k]) +
              "; the scene has " + std::to_string(materials));
     p.material = static_cast<int>(material[k]);
-    add(p);
+    p.center = Vec3(center[3 * k], center[3 * k + 1], center[3 * k + 2]);
+    if (!p.center.allFinite()) r.fail("wall " + std::to_string(k) + ": a finite centre expected");
+    if (kind[k] == kMesh) {
+      archive::Reader section = r.section("mesh");
+      Mesh mesh = Mesh::restore(section);
+      section.finish();
+      meshes_.push_back(std::move(mesh));
+      append(p, kMesh, static_cast<int>(meshes_.size()) - 1);
+    } else if (kind[k] == kPlane) {
+      add(p);
+    } else {
+      r.fail("wall " + std::to_string(k) + " is of no known kind");
+    }
+    removed_.back() = removed[k] != 0;
   }
 }
 

@@ -13,14 +13,16 @@ linked-cell neighbour list, driven from Python with numpy arrays (SI units)::
 
 The public names are listed in ``tsubu.__all__``: :class:`Simulation`, :class:`Material`,
 :class:`InstabilityError`, :class:`PerformanceWarning`, the build's :data:`openmp` flag and
-:data:`__version__`, and the modules of filling, pouring, output and scene files.
+:data:`__version__`, :func:`read_mesh`, and the modules of filling, pouring, triangle meshes
+(:mod:`tsubu.mesh`), output and scene files.
 """
 
 from . import _core
 from .material import Material
 from .simulation import InstabilityError, PerformanceWarning, Simulation
-from . import fill, output
+from . import fill, mesh, output
 from .insert import Inserter
+from .mesh import read_mesh
 
 #: The package's version, a string such as ``"0.1.0"``.
 __version__ = "0.1.0"
@@ -29,4 +31,4 @@ __version__ = "0.1.0"
 openmp = bool(_core.openmp)
 
 __all__ = ["Material", "Simulation", "InstabilityError", "PerformanceWarning", "fill", "Inserter",
-           "output", "openmp", "__version__"]
+           "mesh", "read_mesh", "output", "openmp", "__version__"]

@@ -4,14 +4,15 @@ Hooks for ``Simulation.run(..., output=...)`` (the run-loop contract, ``tsubu.ho
 writing a frame every ``every`` steps:
 
 - :class:`VTKOutput`: particles (``.vtu``), the contact network (``.vtp``, one line per
-  contact) and the walls (``.vtp``, one rectangle per plane), each with a ``.pvd`` time series
-  that ParaView opens as one animated data set;
+  contact) and the walls (``.vtp``, one rectangle per plane, and one ``.vtp`` per mesh wall
+  with its triangles where they are now), each with a ``.pvd`` time series that ParaView opens
+  as one animated data set;
 - :class:`NpzOutput`, :class:`CSVOutput`: the same particle (and contact) arrays as numpy
   ``.npz`` archives or CSV tables.
 
 And one frame at a time: :func:`write_vtk`, :func:`save_npz`, :func:`save_csv`. The arrays
 themselves, as dicts of numpy arrays, come from :func:`particle_data`, :func:`contact_data`
-and :func:`wall_data`. ``docs/output.md`` describes every file and array.
+and :func:`wall_data`, :func:`mesh_data`. ``docs/output.md`` describes every file and array.
 
 The VTK files are written with pyevtk (an optional dependency: ``pip install 'tsubu[vtk]'``);
 the CSV and npz dumps need only numpy.
@@ -35,7 +36,7 @@ from .checkpoint import _folder_error, sync_folder
 
 __all__ = [
     "VTKOutput", "NpzOutput", "CSVOutput", "write_vtk", "save_npz", "save_csv",
-    "particle_data", "contact_data", "wall_data", "scene_extent",
+    "particle_data", "contact_data", "wall_data", "mesh_data", "scene_extent",
 ]
 
 _INSTALL_HINT = "install it with: pip install 'tsubu[vtk]'"
@@ -99,7 +100,8 @@ def contact_data(sim, contacts: dict | None = None, positions=None) -> dict:
 
     Keys: ``i``, ``j`` (-1 for a wall), ``wall`` (-1 for a pair) (M,) int64; ``overlap`` [m]
     (M,); ``start``, ``end`` [m] (M, 3): the centre of sphere i and that of sphere j, or for a
-    wall contact the point of the plane nearest the centre of i; ``normal`` (M, 3): the unit
+    wall contact the point of the wall nearest the centre of i (a mesh's: of the contact's
+    triangle; with ``positions`` given, planes only); ``normal`` (M, 3): the unit
     vector from ``start`` to ``end`` (the centre-to-centre direction; a rough contact's tilted
     normal is not shown separately); ``force`` [N] (M, 3): the contact's force on sphere i;
     ``normal_force`` [N] (M,): -F.n, positive when the contact pushes the spheres apart;
@@ -121,11 +123,14 @@ def contact_data(sim, contacts: dict | None = None, positions=None) -> dict:
     end = x[np.searchsorted(ids, np.maximum(j, 0))]
     walls = np.flatnonzero(j < 0)
     if walls.size:
-        planes = [sim.plane(k) for k in range(sim.plane_count)]
-        point = np.array([p["point"] for p in planes])[wall[walls]]
-        normal = np.array([p["normal"] for p in planes])[wall[walls]]
-        height = np.einsum("ij,ij->i", start[walls] - point, normal)
-        end[walls] = start[walls] - height[:, None] * normal
+        if positions is None and "wall_point" in contacts:  # (a mesh's: its nearest triangle)
+            end[walls] = np.asarray(contacts["wall_point"], dtype=np.float64).reshape(-1, 3)[walls]
+        else:
+            planes = [sim.wall(k) for k in range(sim.wall_count)]
+            point = np.array([p.get("point", p["center"]) for p in planes])[wall[walls]]
+            normal = np.array([p.get("normal", (0.0, 0.0, 1.0)) for p in planes])[wall[walls]]
+            height = np.einsum("ij,ij->i", start[walls] - point, normal)
+            end[walls] = start[walls] - height[:, None] * normal
     gap = end - start
     length = np.sqrt(np.einsum("ij,ij->i", gap, gap))
     # Two centres at one point have no direction: their normal is left zero, never NaN.
@@ -145,10 +150,12 @@ def contact_data(sim, contacts: dict | None = None, positions=None) -> dict:
 
 def scene_extent(sim, margin: float | None = None) -> tuple[np.ndarray, np.ndarray]:
     """The box (lower, upper) [m] that the wall rectangles of the Simulation ``sim`` cover: the
-    spheres' bounding box (centres +- the largest radius) joined with the planes' points, widened on every side by
-    ``margin`` [m] (default: a tenth of the box's largest side, at least 2 largest radii; 1 m
-    for an empty scene)."""
+    spheres' bounding box (centres +- the largest radius) joined with the planes' points and
+    the mesh walls' vertices, widened on every side by ``margin`` [m] (default: a tenth of the
+    box's largest side, at least 2 largest radii; 1 m for an empty scene)."""
     points = [np.array(sim.plane(k)["point"]) for k in range(sim.plane_count)]
+    points += [p for mesh in _mesh_walls(sim) for p in (mesh["vertices"].min(axis=0),
+                                                         mesh["vertices"].max(axis=0))]
     lower = np.full(3, np.inf)
     upper = np.full(3, -np.inf)
     r_max = 0.0
@@ -229,6 +236,51 @@ def wall_data(sim, extent=None) -> dict:
             data[key][k] = plane[key]
         data["material"][k] = next(m for m, mat in enumerate(materials) if mat is plane["material"])
     return data
+
+
+def _mesh_walls(sim) -> list[dict]:
+    """``sim.wall(k)`` of each mesh wall not removed, with its index as ``"index"``, in index
+    order; none for a Simulation without ``wall_count`` (a build before mesh walls)."""
+    found = []
+    for k in range(getattr(sim, "wall_count", 0)):
+        wall = sim.wall(k)
+        if wall["kind"] == "mesh" and not wall["removed"]:
+            found.append(dict(wall, index=k,
+                              vertices=np.asarray(wall["vertices"], dtype=np.float64).reshape(-1, 3)))
+    return found
+
+
+def mesh_data(sim) -> list[dict]:
+    """The mesh walls of the Simulation ``sim`` as they are now, one dict per mesh wall that
+    has not been removed, in wall-index order.
+
+    Keys: ``wall`` (int), the wall's index (as in ``sim.wall(k)``); ``material`` (int), the
+    index into ``sim.materials``; ``vertices`` [m] (V, 3) float64, the current vertices in the
+    world frame; ``faces`` (F, 3) int64; ``normal`` (F, 3), each triangle's unit normal
+    (right-hand rule of its vertex order); ``vertex_velocity`` [m/s] (V, 3), the wall's
+    velocity at each vertex, v + w x (x - center); ``center`` [m], ``velocity`` [m/s],
+    ``angular_velocity`` [rad/s] (3,): the wall's motion.
+    """
+    materials = sim.materials
+    found = []
+    for wall in _mesh_walls(sim):
+        x = wall["vertices"]
+        faces = np.asarray(wall["faces"], dtype=np.int64).reshape(-1, 3)
+        center, v, w = (np.asarray(wall[key], dtype=np.float64)
+                        for key in ("center", "velocity", "angular_velocity"))
+        a, b, c = x[faces[:, 0]], x[faces[:, 1]], x[faces[:, 2]]
+        normal = np.cross(b - a, c - a)
+        length = np.linalg.norm(normal, axis=1)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            normal = np.where(length[:, None] > 0, normal / length[:, None], 0.0)
+        found.append({
+            "wall": wall["index"],
+            "material": next(m for m, mat in enumerate(materials) if mat is wall["material"]),
+            "vertices": x, "faces": faces, "normal": normal,
+            "vertex_velocity": v + np.cross(w, x - center),
+            "center": center, "velocity": v, "angular_velocity": w,
+        })
+    return found
 
 
 # ---- VTK XML files (pyevtk) ----------------------------------------------------------------------
@@ -374,6 +426,21 @@ def _write_walls(vtk, path: str, sim, walls: dict) -> None:
         "wall", "material", "normal", "point", "velocity", "angular_velocity")})
 
 
+def _write_mesh(vtk, path: str, sim, mesh: dict) -> None:
+    count = mesh["faces"].shape[0]
+    _write_piece(vtk, path, vtk.VtkPolyData, sim,
+                 {"npoints": mesh["vertices"].shape[0], "npolys": count}, {
+        "Points": {"points": mesh["vertices"]},
+        "Polys": {"connectivity": mesh["faces"].reshape(-1),
+                  "offsets": np.arange(3, 3 * count + 1, 3, dtype=np.int64)},
+        "PointData": {"velocity": mesh["vertex_velocity"]},
+    }, "Cell", "wall", "normal", {
+        "wall": np.full(count, mesh["wall"], dtype=np.int64),
+        "material": np.full(count, mesh["material"], dtype=np.int64),
+        "triangle": np.arange(count, dtype=np.int64),
+        "normal": mesh["normal"]})
+
+
 def write_vtk(sim, directory, name: str = "particles", contacts: bool = True, walls: bool = True,
               extent=None) -> dict:
     """Write the Simulation's current state as VTK XML files (one frame), for ParaView.
@@ -383,12 +450,15 @@ def write_vtk(sim, directory, name: str = "particles", contacts: bool = True, wa
     point data), ``<name>_contacts_<step>.vtp`` (one line per contact, the arrays of
     :func:`contact_data` as cell data) if ``contacts``, ``<name>_walls_<step>.vtp`` (one
     rectangle per plane, :func:`wall_data`, clipped to ``extent`` = (lower, upper) [m], default
-    :func:`scene_extent`) if ``walls``. Every file carries the field data ``TimeValue`` (the
-    simulated time [s]) and ``step``. Each file is written under a temporary name and renamed
-    when complete.
+    :func:`scene_extent`) if ``walls``, and with it ``<name>_mesh<k>_<step>.vtp`` for each
+    mesh wall k not removed (its triangles at their current place, :func:`mesh_data`). Every
+    file carries the field data ``TimeValue`` (the simulated time [s]) and ``step``. Each file
+    is written under a temporary name and renamed when complete.
 
     Returns a dict: the path of each file written, under ``"particles"``, ``"contacts"``,
-    ``"walls"``. Raises ImportError when pyevtk is not installed (``pip install 'tsubu[vtk]'``).
+    ``"walls"``, and under ``"meshes"`` a dict {wall index: path} of the mesh walls' files
+    (absent when none was written). Raises ImportError when pyevtk is not installed
+    (``pip install 'tsubu[vtk]'``).
     """
     vtk = _pyevtk_vtk()
     name = _check_name(name)
@@ -409,6 +479,13 @@ def write_vtk(sim, directory, name: str = "particles", contacts: bool = True, wa
         wall_arrays = wall_data(sim, extent)
         written["walls"] = os.path.join(directory, f"{name}_walls_{step}.vtp")
         _write_atomically(written["walls"], lambda p: _write_walls(vtk, p, sim, wall_arrays))
+        meshes = {}
+        for mesh in mesh_data(sim):
+            meshes[mesh["wall"]] = os.path.join(directory, f"{name}_mesh{mesh['wall']}_{step}.vtp")
+            _write_atomically(meshes[mesh["wall"]],
+                              lambda p, mesh=mesh: _write_mesh(vtk, p, sim, mesh))
+        if meshes:
+            written["meshes"] = meshes
     return written
 
 
@@ -437,7 +514,9 @@ _INDEX_OWNERS: dict = {}
 class _Series:
     """A time series of files listed in a .pvd collection (or a CSV index), rewritten atomically
     after each frame. Frames are kept by step; writing step s drops the frames listed at s and
-    after (a run that went back, e.g. resumed from a checkpoint, replaces its old future).
+    after (a run that went back, e.g. resumed from a checkpoint, replaces its old future). A
+    frame is one file, or several (the walls: the planes' file and one per mesh wall), each
+    listed with its ``part`` number.
 
     Before each frame a writer claims the index for its Simulation (:meth:`claim`): within one
     process, a Simulation whose first frame would replace every frame that another Simulation
@@ -446,16 +525,17 @@ class _Series:
     def __init__(self, directory: str, index_name: str, pattern: str):
         self.path = os.path.join(directory, index_name)
         self.pattern = re.compile(pattern)
-        self.frames: dict[int, tuple[float, str]] | None = None  # step -> (time, file name)
+        # step -> (time, ((part, file name), ...))
+        self.frames: dict[int, tuple[float, tuple[tuple[int, str], ...]]] | None = None
 
     def _load(self) -> dict:
         """The frames an existing index lists (a resumed run continues its series)."""
-        frames: dict[int, tuple[float, str]] = {}
+        frames: dict[int, tuple[float, tuple[tuple[int, str], ...]]] = {}
         if not os.path.exists(self.path):
             return frames
         try:
-            for step, time, file in self._read():
-                frames[step] = (time, file)
+            for step, time, part, file in self._read():
+                frames[step] = (time, frames.get(step, (time, ()))[1] + ((part, file),))
         except (ET.ParseError, ValueError, KeyError, OSError):
             return {}  # not one of ours: replaced by the new series
         return frames
@@ -465,7 +545,8 @@ class _Series:
             file = entry.attrib["file"]
             match = self.pattern.fullmatch(file)
             if match:
-                yield int(match.group(1)), float(entry.attrib["timestep"]), file
+                yield (int(match.group(1)), float(entry.attrib["timestep"]),
+                       int(entry.attrib.get("part", "0")), file)
 
     def claim(self, sim, step: int, writer: str) -> None:
         """Refuse (FileExistsError, naming the directory and what to do) to write the frame of
@@ -493,19 +574,23 @@ class _Series:
                     "name= (or delete the old files first)", self.path)
         _INDEX_OWNERS[key] = weakref.ref(sim)
 
-    def add(self, step: int, time: float, file: str) -> None:
+    def add(self, step: int, time: float, files) -> None:
+        """List the frame of ``step``: ``files`` is a file name, or a sequence of
+        (part, file name)."""
         if self.frames is None:
             self.frames = self._load()
         self.frames = {s: f for s, f in self.frames.items() if s < step}
-        self.frames[step] = (time, file)
+        self.frames[step] = (time, ((0, files),) if isinstance(files, str) else tuple(files))
         _write_atomically(self.path, lambda stem: self._write(stem + os.path.splitext(self.path)[1]))
 
     def _write(self, path: str) -> None:
         vtk = _pyevtk_vtk()
         group = vtk.VtkGroup(path[: -len(".pvd")])
         for step in sorted(self.frames):
-            time, file = self.frames[step]
-            group.addFile(os.path.join(os.path.dirname(self.path), file), sim_time=repr(time))
+            time, files = self.frames[step]
+            for part, file in files:
+                group.addFile(os.path.join(os.path.dirname(self.path), file), sim_time=repr(time),
+                              part=str(part))
         group.save()
 
 
@@ -517,14 +602,15 @@ class _CSVSeries(_Series):
             rows = csv.DictReader(f)
             for row in rows:
                 if self.pattern.fullmatch(row["file"]):
-                    yield int(row["step"]), float(row["time"]), row["file"]
+                    yield int(row["step"]), float(row["time"]), 0, row["file"]
 
     def _write(self, path: str) -> None:
         with open(path, "w", newline="") as f:
             f.write("step,time,file\n")
             for step in sorted(self.frames):
-                time, file = self.frames[step]
-                f.write(f"{step},{time!r},{file}\n")
+                time, files = self.frames[step]
+                for _, file in files:
+                    f.write(f"{step},{time!r},{file}\n")
 
 
 # ---- hooks ---------------------------------------------------------------------------------------
@@ -568,7 +654,7 @@ class VTKOutput(_EveryK):
     name : str
         File-name stem. Default ``"particles"``.
     contacts, walls : bool
-        Also write the contact network and the walls. Default True.
+        Also write the contact network and the walls (planes and mesh walls). Default True.
     extent : (lower, upper) 3-vectors [m] or None
         The box the wall rectangles cover; None: :func:`scene_extent` of each frame.
 
@@ -576,7 +662,9 @@ class VTKOutput(_EveryK):
     -----
     Each frame writes the files of :func:`write_vtk`; after it the collections
     ``<name>.pvd``, ``<name>_contacts.pvd``, ``<name>_walls.pvd`` (the frames' simulated times
-    and files: open these in ParaView) are rewritten under a temporary name, flushed to disk and
+    and files: open these in ParaView; the walls' collection lists at each time the planes'
+    file as part 0 and each mesh wall k's file as part k + 1, a removed wall no more) are
+    rewritten under a temporary name, flushed to disk and
     renamed, so that a run killed at any moment leaves valid ones. When a collection already
     exists (a run resumed from a checkpoint into the same directory), the frames it lists before
     the first step written are kept and those from that step on are replaced. Within one
@@ -612,14 +700,18 @@ class VTKOutput(_EveryK):
                                                rf"{esc}_contacts_(\d+)\.vtp")
         if self.walls:
             self._series["walls"] = _Series(self.directory, f"{self.name}_walls.pvd",
-                                            rf"{esc}_walls_(\d+)\.vtp")
+                                            rf"{esc}_(?:walls|mesh\d+)_(\d+)\.vtp")
 
     def _write(self, sim) -> None:
         for series in self._series.values():
             series.claim(sim, sim.step_count, f"VTKOutput(name={self.name!r})")
         written = write_vtk(sim, self.directory, self.name, self.contacts, self.walls, self.extent)
+        meshes = written.pop("meshes", {})
         for kind, path in written.items():
-            self._series[kind].add(sim.step_count, sim.time, os.path.basename(path))
+            files = [(0, os.path.basename(path))]
+            if kind == "walls":  # the mesh walls: part k + 1 for wall k, the same in every frame
+                files += [(k + 1, os.path.basename(p)) for k, p in sorted(meshes.items())]
+            self._series[kind].add(sim.step_count, sim.time, files)
 
 
 # ---- npz and CSV ---------------------------------------------------------------------------------

@@ -495,7 +495,7 @@ class Simulation:
 
     def add_plane(self, point=None, normal=None, material: Material | None = None,
                   velocity=(0.0, 0.0, 0.0), angular_velocity=(0.0, 0.0, 0.0),
-                  coefficients=None) -> int:
+                  coefficients=None, center=None) -> int:
         """Add an infinite plane wall; returns its index (an int, counted from 0).
 
         Give either ``point`` and ``normal``, or ``coefficients`` = (a, b, c, d) of
@@ -517,10 +517,13 @@ class Simulation:
             Translation velocity [m/s], at most the speed of light (299,792,458 m/s)
             in magnitude. Default zero.
         angular_velocity : array_like, shape (3,)
-            Angular velocity [rad/s] about ``point``. Default zero. A run refuses (ValueError) a
+            Angular velocity [rad/s] about ``center``. Default zero. A run refuses (ValueError) a
             rotation that moves the wall faster than light where a sphere is.
         coefficients : array_like, shape (4,), optional
             (a, b, c, d), instead of ``point`` and ``normal``.
+        center : array_like, shape (3,), optional
+            The centre of the wall's rotation [m]; default its point. Planes (and meshes) that
+            share a centre and a motion turn together as one body (a box of planes).
 
         Raises
         ------
@@ -554,8 +557,168 @@ class Simulation:
             normal = (0.0, 0.0, 1.0)
         p = _checks.vec3("point", point)
         nrm = _unit("normal", normal)
+        c = p if center is None else _checks.vec3("center", center)
         return self._core.add_plane(p, nrm, self._material(material, scene=True), _wall_velocity("velocity", velocity),
-                                    _checks.vec3("angular_velocity", angular_velocity))
+                                    _checks.vec3("angular_velocity", angular_velocity), c)
+
+    def add_mesh(self, vertices, faces, material: Material | None = None, velocity=(0.0, 0.0, 0.0),
+                 angular_velocity=(0.0, 0.0, 0.0), center=None) -> int:
+        """Add a triangle-mesh wall; returns its wall index (shared with planes).
+
+        Spheres touch a triangle on either side, at its face, an edge or a vertex, whichever
+        is nearest; on a smooth surface made of many triangles a sphere has one contact, whose
+        tangential history crosses the triangles' edges whole, and in a concave corner one
+        contact per face it presses (docs/geometry.md). Triangles are joined through shared
+        vertex indices (vertices at equal coordinates are joined too). The mesh need not be
+        closed. It moves as a rigid body. Wall contacts use the particle's mass as m_eff.
+
+        Parameters
+        ----------
+        vertices : array_like, shape (V, 3)
+            Vertex coordinates [m], where the mesh is now.
+        faces : array_like of int, shape (F, 3)
+            Each triangle's three vertex indices (0-based).
+        material : Material
+            The wall's material (required).
+        velocity : array_like, shape (3,)
+            Translation velocity [m/s] of the whole mesh. Default zero.
+        angular_velocity : array_like, shape (3,)
+            Angular velocity [rad/s] about ``center``. Default zero.
+        center : array_like, shape (3,), optional
+            Centre of rotation [m] (also the point wall torques are taken about). Default the
+            mean of the vertices.
+
+        Raises
+        ------
+        TypeError
+            Without a material, or for arguments that are not numbers.
+        ValueError
+            For arrays of the wrong shape, non-finite coordinates, face indices out of range or
+            repeated within a triangle, degenerate (zero-area) triangles (each named), or a
+            velocity faster than light.
+
+        Examples
+        --------
+        >>> import tsubu
+        >>> sim = tsubu.Simulation()
+        >>> steel = tsubu.Material(density=7800, kn=1e5)
+        >>> sim.add_mesh(*tsubu.mesh.box((0, 0, 0), (0.1, 0.1, 0.1)), material=steel)
+        0
+        """
+        if material is None:
+            raise TypeError("add_mesh needs a material")
+        from .mesh import check_mesh
+        v, f = check_mesh(vertices, faces)
+        c = tuple(float(x) for x in v.mean(axis=0)) if center is None else _checks.vec3("center", center)
+        return self._core.add_mesh(v, f, self._material(material, scene=True), _wall_velocity("velocity", velocity),
+                                   _checks.vec3("angular_velocity", angular_velocity), c)
+
+    def set_wall_motion(self, wall: int, velocity=None, angular_velocity=None, center=None) -> None:
+        """Change a wall's (plane's or mesh's) motion, from the next step on.
+
+        Parameters
+        ----------
+        wall : int
+            The wall's index (as :meth:`add_plane` or :meth:`add_mesh` returned it).
+        velocity : array_like, shape (3,), optional
+            New translation velocity [m/s]. Default None: unchanged.
+        angular_velocity : array_like, shape (3,), optional
+            New angular velocity [rad/s] about the wall's centre. Default None: unchanged.
+        center : array_like, shape (3,), optional
+            New centre of rotation [m] (the wall does not move when it changes). Default None:
+            unchanged.
+
+        Raises
+        ------
+        TypeError
+            For an index that is not an integer, or vectors that are not numbers.
+        ValueError
+            For a wall that does not exist, non-finite vectors, or a velocity faster than light.
+        """
+        state = self.wall(wall)
+        v = state["velocity"] if velocity is None else _wall_velocity("velocity", velocity)
+        w = state["angular_velocity"] if angular_velocity is None else _checks.vec3("angular_velocity", angular_velocity)
+        c = None if center is None else _checks.vec3("center", center)
+        self._core.set_plane_motion(wall, v, w)
+        if c is not None:
+            self._core.set_wall_center(wall, c)
+
+    def remove_wall(self, wall: int) -> None:
+        """Take a wall out of the scene (a gate that opens): from the next run on it touches
+        nothing, and its contacts end (their stored energy leaves with them). The other walls
+        keep their indices; the removed one stays listed, with ``removed`` true.
+
+        Raises
+        ------
+        TypeError
+            For an index that is not an integer.
+        ValueError
+            For a wall that does not exist.
+        """
+        self.wall(wall)
+        self._core.remove_wall(wall)
+
+    @property
+    def wall_count(self) -> int:
+        """Number of walls, planes and meshes (indices 0 to wall_count - 1, removed ones too)."""
+        return self._core.plane_count
+
+    def wall(self, wall: int) -> dict:
+        """A wall's current state.
+
+        Returns
+        -------
+        dict
+            ``kind`` ("plane" or "mesh"), ``center`` [m], ``velocity`` [m/s],
+            ``angular_velocity`` [rad/s], ``material`` (the :class:`Material`), ``removed``
+            (bool); a plane also ``point`` [m] and ``normal``; a mesh also ``vertices`` (V, 3)
+            [m], where it is now, and ``faces`` (F, 3). Arrays are read-only copies.
+
+        Raises
+        ------
+        TypeError
+            For an index that is not an integer.
+        ValueError
+            For a wall that does not exist.
+        """
+        wall = _checks.whole("wall", wall)
+        if wall >= self._core.plane_count:
+            raise ValueError(f"wall {wall} does not exist: the simulation has {self._core.plane_count} "
+                             f"walls (wall must be < {self._core.plane_count})")
+        d = self._core.wall(wall)
+        out = {}
+        for k, v in d.items():
+            if k == "material":
+                out[k] = self._materials_by_index(v)
+            elif k in ("kind", "removed"):
+                out[k] = v
+            else:
+                out[k] = _read_only(np.array(v))
+        return out
+
+    def wall_forces(self) -> np.ndarray:
+        """The force [N] the spheres put on each wall, as the last step evaluated its contacts.
+
+        Returns
+        -------
+        numpy.ndarray, shape (wall_count, 3)
+            Row w: the sum over wall w's contacts of the force on the wall (minus the force on
+            the sphere); zero for a removed wall. A silo wall's load; a resting pack's weight on
+            its floor.
+        """
+        return _read_only(self._core.wall_loads()[0])
+
+    def wall_torques(self) -> np.ndarray:
+        """The torque [N m] the spheres put on each wall about its centre (``wall(w)["center"]``),
+        as the last step evaluated its contacts: the moment of each contact force at its contact
+        point, and the reaction of any rolling-resistance torque. A drum's driving torque is
+        minus its component along the axis.
+
+        Returns
+        -------
+        numpy.ndarray, shape (wall_count, 3)
+        """
+        return _read_only(self._core.wall_loads()[1])
 
     def set_plane_motion(self, wall: int, velocity=None, angular_velocity=None) -> None:
         """Change a wall's velocity and/or angular velocity (from the next step on).
@@ -568,8 +731,8 @@ class Simulation:
             New translation velocity [m/s], at most the speed of light (299,792,458 m/s)
             in magnitude. Default None: unchanged.
         angular_velocity : array_like, shape (3,), optional
-            New angular velocity [rad/s] about the wall's current point. Default None:
-            unchanged. A run refuses (ValueError) a rotation that moves the wall faster than
+            New angular velocity [rad/s] about the wall's centre (its point unless
+            given). Default None: unchanged. (:meth:`set_wall_motion` can also move the centre.) A run refuses (ValueError) a rotation that moves the wall faster than
             light where a sphere is.
 
         Raises
@@ -616,6 +779,8 @@ class Simulation:
         if wall >= self._core.plane_count:
             raise ValueError(f"wall {wall} does not exist: the simulation has {self._core.plane_count} "
                              f"walls (wall must be < {self._core.plane_count})")
+        if self._core.wall(wall)["kind"] != "plane":
+            raise ValueError(f"wall {wall} is a mesh, not a plane: use wall({wall})")
         d = self._core.plane(wall)
         return {k: (_read_only(np.array(v)) if k != "material" else self._materials_by_index(v))
                 for k, v in d.items()}
@@ -1059,7 +1224,11 @@ class Simulation:
             - ``force``: contact force on i [N], shape (M, 3) (the partner gets -force);
             - ``torque_i``: torque on i from this contact [N m], shape (M, 3);
             - ``tangential_displacement``: the stored tangential history [m], shape (M, 3)
-              (zero without friction).
+              (zero without friction);
+            - ``element``: a wall contact's element (a mesh's triangle, the row of its
+              ``faces``; 0 for a plane; -1 for a pair), int, shape (M,);
+            - ``wall_point``: a wall contact's point of the wall nearest the centre of i now
+              (on the plane, or on the triangle) [m], shape (M, 3) (zero for a pair).
         """
         return self._core.contacts()
 

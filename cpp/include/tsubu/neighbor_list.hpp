@@ -70,6 +70,9 @@ class NeighborList {
   // particle sums.
   Index reach_below = 0, reach_above = 0, max_entries = 0;
   Array<Index> active;  // scratch of the contact pass: the near-wall entries in contact
+  // Scenes with a mesh: each near-wall entry's tangent plane this step (Walls::measure), written
+  // by the contact pass; empty otherwise.
+  std::vector<Plane> wall_tangent;
 
   // ---- bookkeeping ------------------------------------------------------------------------
   // Bounds on the distance any particle moved since the last rebuild and since the last

@@ -49,12 +49,14 @@ struct ContactInfo {
   Id i;           // particle id
   Id j;           // partner particle id, or -1 for a wall
   int wall;       // wall index, or -1 for a particle pair
+  int element;    // a mesh wall's triangle (0 for a plane), or -1 for a particle pair
   double overlap; // m
   Vec3 force;     // total contact force on i, N
   Vec3 torque_i;  // torque on i from this contact, N m
   Vec3 tangential_displacement;  // stored history xi, m (zero without friction)
   double reduced_radius;  // R* = r_i r_j / (r_i + r_j); a wall: r_i
   double contact_radius;  // a = sqrt(R* delta) as the Mindlin history keeps it; 0 otherwise
+  Vec3 wall_point = Vec3::Zero();  // a wall contact: the point of the wall nearest i's centre now
 };
 
 class Simulation : private detail::RunHooks {
@@ -92,6 +94,25 @@ class Simulation : private detail::RunHooks {
                 const Vec3& velocity = Vec3::Zero(), const Vec3& angular_velocity = Vec3::Zero());
   int add_plane(const Vec3& point, const Vec3& normal, int material,
                 const Vec3& velocity = Vec3::Zero(), const Vec3& angular_velocity = Vec3::Zero());
+  // A plane that turns about `center` (add_plane: about its point).
+  int add_plane(const Vec3& point, const Vec3& normal, int material, const Vec3& velocity,
+                const Vec3& angular_velocity, const Vec3& center);
+  // A triangle-mesh wall (docs/geometry.md): vertices (world frame) and faces (three vertex
+  // indices each), moving as a rigid body with `velocity` and turning with `angular_velocity`
+  // about `center`. Throws InvalidArgument naming the triangle for indices out of range, repeated
+  // in a face, non-finite coordinates or a degenerate (zero-area) triangle; or for no faces.
+  int add_mesh(const std::vector<Vec3>& vertices, const std::vector<Mesh::Face>& faces, int material,
+               const Vec3& velocity, const Vec3& angular_velocity, const Vec3& center);
+  // Moves a wall's centre of rotation (the wall stays where it is).
+  void set_wall_center(int wall, const Vec3& center);
+  // Takes a wall out: from the next run on it touches nothing; its contacts end (their energy
+  // leaves with them); other walls keep their indices.
+  void remove_wall(int wall);
+  const Walls& walls() const { return walls_; }
+  // The force each wall receives from the spheres (minus the sum of its contacts' forces on
+  // them) and its torque about the wall's centre, as the last step evaluated them: row w for
+  // wall w (zero for a removed wall).
+  void wall_loads(std::vector<Vec3>& forces, std::vector<Vec3>& torques) const;
   // A wall's velocity must be finite and at most kMaxWallSpeed (InvalidArgument); a wall that
   // rotates is checked when a run starts, where the spheres are (check_wall_speeds).
   void set_plane_motion(int wall, const Vec3& velocity, const Vec3& angular_velocity);
@@ -298,6 +319,7 @@ class Simulation : private detail::RunHooks {
   // index), each with the carried arrays of EntryStore in its order, `widths[k]` values each.
   struct ContactState {
     std::vector<Id> owner, partner;
+    std::vector<Index> element;  // walls: each contact's element (empty: all 0, planes)
     std::array<std::vector<double>, EntryStore::kFields> values;
     std::array<int, EntryStore::kFields> widths{};
     void save(archive::Writer& w) const;
@@ -405,6 +427,16 @@ class Simulation : private detail::RunHooks {
   Domain domain_;
   Particles particles_;
   Walls walls_;
+  // With meshes: every near-wall entry's plane at the current positions (wall_planes_now()).
+  mutable std::vector<Plane> wall_planes_;
+  mutable std::vector<Index> wall_entries_;
+  // The plane each near-wall entry's contact is on now, by entry (a plane wall's own, a mesh
+  // contact's tangent plane, hidden ones clear of the sphere: Walls::measure).
+  const Plane& wall_plane_now(Index e) const {
+    return walls_.has_meshes() ? wall_planes_[std::size_t(e)] : walls_.plane(lists_.wall_index[std::size_t(e)]);
+  }
+  // Measures them (with meshes only); call before wall_plane_now.
+  void measure_walls_now() const;
   NeighborList lists_;
   ContactStore contacts_;
 

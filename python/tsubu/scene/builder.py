@@ -326,9 +326,14 @@ class _Builder:
         probe = Simulation(**{k: v for k, v in options.items() if k not in ("duration", "dt_fraction", "dt")})
         for a, b, overrides in self.pairs:
             probe.set_pair(a, b, **overrides)
-        for k in range(sim.plane_count):
-            wall = sim.plane(k)
-            probe.add_plane(point=wall["point"], normal=wall["normal"], material=wall["material"])
+        for k in range(sim.wall_count):
+            wall = sim.wall(k)
+            if wall["removed"]:
+                continue
+            if wall["kind"] == "mesh":
+                probe.add_mesh(wall["vertices"], wall["faces"], material=wall["material"])
+            else:
+                probe.add_plane(point=wall["point"], normal=wall["normal"], material=wall["material"])
         for positions, radii, material, velocities in self.batches:
             probe.add_spheres(positions, radii, material, velocities=velocities)
         for spec, sizes in self.inserters:

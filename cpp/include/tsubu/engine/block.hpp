@@ -234,7 +234,7 @@ struct Blocked {
                     double& excess, double& fmax) {
     for (int a = 0; a < len; ++a) {
       const Index i = c.wown[e[a]];
-      const Wall& P = c.planes[c.wall[e[a]]];
+      const Wall& P = wall_plane(c, e[a]);
       const PairParams& p = (*c.table)(c.mat[i], P.material);
       const Vec3 xi_pos = vec3(c.x, i);
       const double ri = c.r[i];

@@ -209,7 +209,7 @@ struct Contacts {
   // `excess` as pair().
   static double wall(const ContactView& c, Index e, double& excess) {
     const Index i = c.wown[e];
-    const Wall& P = c.planes[c.wall[e]];
+    const Wall& P = wall_plane(c, e);
     const PairParams& params = (*c.table)(c.mat[i], P.material);
     const Vec3 xi_pos = vec3(c.x, i);
     const double ri = c.r[i], dt = c.dt;

@@ -7,6 +7,7 @@
 #include <cmath>
 
 #include "block.hpp"
+#include "mesh_contacts.hpp"
 
 namespace tsubu::detail {
 
@@ -86,9 +87,10 @@ struct ContactPass {
     Index* const wact = c.wact;
     auto wall_owner = [&](Index p) { return c.wown[c.wnear[p]]; };
     const Index wlo = part_start(wall_owner, nw, t, nt), whi = part_start(wall_owner, nw, t + 1, nt);
+    if (c.meshes) MeshContacts<Law>::measure(c, wlo, whi);
     const Index wcount = compact(wlo, whi, wact + wlo, [&](Index p) {
       const Index e = c.wnear[p];
-      const Wall& P = c.planes[c.wall[e]];
+      const Wall& P = wall_plane(c, e);
       const double gap = P.distance(vec3(c.x, c.wown[e])) - c.r[c.wown[e]];
       return (gap < 0) | (c.wtouch[e] != 0);
     });

@@ -61,7 +61,7 @@ struct ContactView {
   const double *x, *v, *w, *r, *m, *inv_i;
   const int* mat;
   const Id* ids;
-  const Index *own, *par, *wown, *wall, *wnear, *owned;
+  const Index *own, *par, *wown, *wall, *welement, *wnear, *wnear_offset, *owned;
   const double *cut2, *entry;  // (r_i + r_j)^2, the law's entry terms (ContactLaw::entry_terms)
   double limit;  // max_overlap
   double speed;  // the scene's characteristic impact speed (Simulation::characteristic_speed)
@@ -72,6 +72,10 @@ struct ContactView {
   std::uint8_t* loaded;
   Index* wact;  // scratch: the near-wall entries in contact
   const Wall* planes;
+  // Scenes with a mesh: the walls, and each near-wall entry's tangent plane this step (the
+  // contact pass measures them first); null otherwise, and an entry's wall is planes[wall[e]].
+  const Walls* meshes;
+  Wall* tangent;
   bool moving;  // a wall moves: wall contacts take its velocity
   const PairTable* table;
   const PairParams* same;  // the parameters of every pair when all spheres share a material
@@ -94,7 +98,8 @@ struct ContactView {
       : x(p.x.data()), v(p.v.data()), w(p.w.data()), r(p.radius.data()), m(p.mass.data()),
         inv_i(p.inv_inertia.data()), mat(p.material.data()), ids(p.id.data()),
         own(l.near_owner.data()), par(l.near_partner.data()), wown(l.wall_owner.data()),
-        wall(l.wall_index.data()), wnear(l.wall_near.data()), owned(l.near_offset.data()),
+        wall(l.wall_index.data()), welement(l.wall_element.data()), wnear(l.wall_near.data()),
+        wnear_offset(l.wall_near_offset.data()), owned(l.near_offset.data()),
         cut2(l.near_cut2.data()), entry(l.near_entry.data()), limit(s.options.max_overlap),
         speed(s.run.speed), xi(c.pairs.xi.data()), force(c.pairs.force.data()),
         nxft(c.pairs.nxft.data()), roll(c.pairs.roll.data()), overlap(c.pairs.overlap.data()),
@@ -102,12 +107,19 @@ struct ContactView {
         wnxft(c.walls.nxft.data()), wroll(c.walls.roll.data()), woverlap(c.walls.overlap.data()),
         wrough(c.walls.rough.data()), touch(c.pairs.touch.data()), wtouch(c.walls.touch.data()),
         diss(p.dissipated.data()), loaded(l.loaded.data()), wact(l.active.data()),
-        planes(s.walls.planes()), moving(s.walls.moving()), table(&s.pairs),
+        planes(s.walls.planes()), meshes(s.walls.has_meshes() ? &s.walls : nullptr),
+        tangent(s.walls.has_meshes() ? l.wall_tangent.data() : nullptr), moving(s.walls.moving()), table(&s.pairs),
         same(s.sphere_material >= 0 ? &s.pairs(s.sphere_material, s.sphere_material) : nullptr),
         box(s.domain), step(std::uint64_t(s.run.step + ahead)), seed(s.options.seed), dt(dt_),
         pairs(Index(l.near_partner.size())), walls(Index(l.wall_near.size())), threads(s.threads),
         far(s.particles.size() >= kFar) {}
 };
+
+// The plane a near-wall entry's contact is evaluated on: its wall, or in a scene with meshes the
+// tangent plane the pass measured (one branch per wall entry, the same way every time).
+TSUBU_INLINE const Wall& wall_plane(const ContactView& c, Index e) {
+  return c.tangent ? c.tangent[e] : c.planes[c.wall[e]];
+}
 
 // Everything the particle pass reads and writes.
 struct ParticleView {

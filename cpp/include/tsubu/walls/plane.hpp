@@ -1,6 +1,8 @@
 // A plane wall a x + b y + c z + d = 0 (3.1-3.2), stored as a point and a unit normal pointing to
 // the side where spheres live. It translates with `velocity` and rotates with `angular_velocity`
-// about `point`.
+// about `center` (by default its point: a box of planes sharing one centre turns as one body).
+// The same record holds a mesh wall's motion (mesh.hpp), and the contact pass's tangent plane
+// at a mesh contact (the plane through the nearest point of a triangle, with the mesh's motion).
 //
 // A wall model answers, for a sphere: the gap and the normal (distance, normal_at), the contact
 // point and the wall's velocity there (velocity_at), and whether the sphere is near enough to
@@ -17,6 +19,7 @@ struct Plane {
   Vec3 normal = Vec3(0, 0, 1);
   Vec3 velocity = Vec3::Zero();
   Vec3 angular_velocity = Vec3::Zero();
+  Vec3 center = Vec3::Zero();
   int material = 0;
 
   bool moving() const { return velocity.squaredNorm() > 0 || angular_velocity.squaredNorm() > 0; }
@@ -40,7 +43,7 @@ struct Plane {
   TSUBU_INLINE static Vec3 contact_point(const Vec3& x, double c, const Vec3& n) { return x - c * n; }
   // The wall's velocity at point y.
   TSUBU_INLINE Vec3 velocity_at(const Vec3& y) const {
-    return velocity + angular_velocity.cross(y - point);
+    return velocity + angular_velocity.cross(y - center);
   }
   // Whether a sphere of radius r at x is within `reach` of touching (or behind the plane).
   template <class X>
@@ -51,11 +54,13 @@ struct Plane {
   // One step of the wall's motion.
   void advance(double dt) {
     point += dt * velocity;
+    center += dt * velocity;
     const double angle = angular_velocity.norm() * dt;
     if (angle > 0) {
-      const Vec3 axis = angular_velocity.normalized();
-      normal = Eigen::AngleAxisd(angle, axis) * normal;
+      const Eigen::AngleAxisd turn(angle, angular_velocity.normalized());
+      normal = turn * normal;
       normal.normalize();
+      if (point != center) point = center + turn * (point - center);
     }
   }
   // How far the signed distance of any point within `reach` of the reference point p0 can have

@@ -6,28 +6,43 @@
 // enough since the last rebuild to need another (docs/architecture.md, "Add a wall kind").
 #pragma once
 #include <cstddef>
+#include <cstdint>
 #include <vector>
 
 #include "../archive.hpp"
 #include "../types.hpp"
+#include "mesh.hpp"
 #include "plane.hpp"
 
 namespace tsubu {
 
-// The wall kind the contact pass evaluates (ContactView::planes). Planes are the one kind today;
-// a second kind (a triangle mesh) makes the pass dispatch on the kind of a near-wall entry here
-// (docs/architecture.md, "Add a wall kind").
+// The record the contact pass reads for a wall entry (ContactView::planes, ContactView::tangent):
+// a plane, or the tangent plane of a mesh contact with the mesh's motion.
 using Wall = Plane;
 
 class Walls {
  public:
+  enum Kind : std::uint8_t { kPlane = 0, kMesh = 1 };
+
   int count() const { return static_cast<int>(planes_.size()); }
   // Appends a plane (its normal already unit length); returns its wall index.
   int add(const Plane& p);
+  // Appends a mesh; `motion` holds its velocity, angular velocity and material (its centre is
+  // the mesh's). Returns its wall index.
+  int add_mesh(Mesh mesh, const Plane& motion);
+  Kind kind(int wall) const { return Kind(kind_[static_cast<std::size_t>(wall)]); }
+  bool removed(int wall) const { return removed_[static_cast<std::size_t>(wall)] != 0; }
+  // Takes a wall out of the scene: it touches nothing from the next rebuild on; its index stays.
+  void remove(int wall);
+  // A plane's state; for a mesh, its motion record (point = centre; the normal means nothing).
   const Plane& plane(int wall) const { return planes_[static_cast<std::size_t>(wall)]; }
-  // Replaces a wall's whole state (checkpoints) or its motion.
+  const Mesh& mesh(int wall) const { return meshes_[static_cast<std::size_t>(slot_[static_cast<std::size_t>(wall)])]; }
+  bool has_meshes() const { return !meshes_.empty(); }
+  // Replaces a plane's whole state (checkpoints).
   void set(int wall, const Plane& p) { planes_[static_cast<std::size_t>(wall)] = p; }
   void set_motion(int wall, const Vec3& velocity, const Vec3& angular_velocity);
+  // Moves a wall's centre of rotation (the wall itself does not move).
+  void set_center(int wall, const Vec3& center);
   const Plane* planes() const { return planes_.data(); }
   int material(int wall) const { return plane(wall).material; }
 
@@ -43,22 +58,42 @@ class Walls {
   void advance(double dt);
 
   // Calls visit(wall, element) for each wall element within `reach` of touching a sphere of
-  // radius r at x (or behind it), in increasing (wall, element) order.
+  // radius r at x (or behind it), in increasing (wall, element) order. A plane has one element,
+  // a mesh one per triangle.
   template <class X, class Visit>
   void for_each_near(const Eigen::MatrixBase<X>& x, double r, double reach, Visit&& visit) const {
-    for (std::size_t w = 0; w < planes_.size(); ++w)
-      if (planes_[w].near(x, r, reach)) visit(static_cast<Index>(w), Index(0));
+    for (std::size_t w = 0; w < planes_.size(); ++w) {
+      if (removed_[w]) continue;
+      if (kind_[w] == kPlane) {
+        if (planes_[w].near(x, r, reach)) visit(static_cast<Index>(w), Index(0));
+      } else {
+        meshes_[std::size_t(slot_[w])].for_each_near(Vec3(x), r, reach,
+                                                     [&](Index t) { visit(static_cast<Index>(w), t); });
+      }
+    }
   }
   // The gap between a sphere of radius r at x and a wall element (negative: overlap).
   template <class X>
-  double gap(const Eigen::MatrixBase<X>& x, double r, Index wall, Index /*element*/) const {
-    return planes_[static_cast<std::size_t>(wall)].distance(x) - r;
+  double gap(const Eigen::MatrixBase<X>& x, double r, Index wall, Index element) const {
+    const std::size_t w = static_cast<std::size_t>(wall);
+    if (kind_[w] == kPlane) return planes_[w].distance(x) - r;
+    return meshes_[std::size_t(slot_[w])].distance(Vec3(x), element) - r;
   }
   // The overlap of a sphere of radius r at x with a wall element.
   template <class X>
-  double overlap(const Eigen::MatrixBase<X>& x, double r, Index wall, Index /*element*/) const {
-    return planes_[static_cast<std::size_t>(wall)].overlap(x, r);
+  double overlap(const Eigen::MatrixBase<X>& x, double r, Index wall, Index element) const {
+    return -gap(x, r, wall, element);
   }
+
+  // The contact geometry of one sphere (radius r at x) with its near-wall entries entries[0, n),
+  // each naming wall[e] and element[e]: tangent[e] is the plane the contact pass evaluates (a
+  // plane wall itself; for a triangle the tangent plane at its nearest point, with the mesh's
+  // motion and material). Of a mesh's triangles that touch the sphere, those that another hides
+  // get a tangent plane clear of the sphere: an edge or vertex of a triangle whose face touches,
+  // the same edge or vertex seen from another triangle, a face coplanar with a touching
+  // neighbour's (docs/geometry.md, "Contact with triangles").
+  void measure(const Vec3& x, double r, const Index* wall, const Index* element, const Index* entries,
+               int n, Plane* tangent) const;
 
   // Takes the walls' positions now as the reference of the rebuild criterion, for particles
   // inside the box [lo, hi].
@@ -70,10 +105,15 @@ class Walls {
   std::size_t bytes() const;
 
  private:
+  int append(const Plane& p, Kind kind, int slot);
   std::vector<Plane> planes_;
-  // The rebuild criterion's reference: each plane at the last mark(), and the largest distance
-  // from a plane's point to the particles' box then.
+  std::vector<std::uint8_t> kind_, removed_;
+  std::vector<int> slot_;  // a mesh wall's index in meshes_ (-1: a plane)
+  std::vector<Mesh> meshes_;
+  // The rebuild criterion's reference: each plane at the last mark() (a mesh: its centre and
+  // orientation), and the largest distance from a wall's point to the particles' box then.
   std::vector<Vec3> point_ref_, normal_ref_;
+  std::vector<Mesh::Orientation> orientation_ref_;
   double reach_ = 0;
 };
 
