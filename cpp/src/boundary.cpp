@@ -67,6 +67,7 @@ void Simulation::remove_now(std::size_t count, const Id* ids, const int* outlet)
           continue;
         kept.owner.push_back(c.owner[e]);
         kept.partner.push_back(c.partner[e]);
+        if (!c.element.empty()) kept.element.push_back(c.element[e]);  // a mesh wall's triangle
         for (std::size_t k = 0; k < EntryStore::kFields; ++k)
           kept.values[k].insert(kept.values[k].end(), c.values[k].begin() + c.widths[k] * e,
                                 c.values[k].begin() + c.widths[k] * (e + 1));
