@@ -365,3 +365,25 @@ def test_a_scene_file_reports_a_bad_outlet_at_its_path(tmp_path):
         scene_from_dict(_scene([{"shape": "box", "lo": [0, 0, 1], "hi": [1, 1, 0]}], {}), tmp_path)
     with pytest.raises(SceneError, match=r"outlets\[0\]\.shape"):
         scene_from_dict(_scene([{"shape": "cone", "lo": [0, 0, 0], "hi": [1, 1, 1]}], {}), tmp_path)
+
+
+def test_a_removal_keeps_the_mesh_triangle_of_each_wall_contact():
+    # two spheres slide on the two triangles of a square mesh; removing a third, far away, keeps
+    # each contact on its triangle (element) with its history: the same bits as without it
+    m = material()
+    def make():
+        sim = tsubu.Simulation(gravity=G, dt=1e-5)
+        sim.add_mesh(np.array([(-1, -1, 0), (1, -1, 0), (1, 1, 0), (-1, 1, 0)], float),
+                     np.array([(0, 1, 2), (0, 2, 3)]), m)
+        sim.add_spheres([(0.3, -0.2, R * 0.999), (-0.3, 0.2, R * 0.999), (0.5, 0.5, 0.5)], R, m,
+                        velocities=[(0.1, 0, 0), (0.1, 0, 0), (0, 0, 0)])
+        return sim
+    kept, cut = make(), make()
+    kept.run(steps=500)
+    cut.run(steps=500)
+    cut.remove_spheres([2])
+    assert cut.contacts()["element"].tolist() == [0, 1]
+    kept.run(steps=2000)
+    cut.run(steps=2000)
+    assert np.array_equal(cut.positions, kept.positions[:2])
+    assert np.array_equal(cut.angular_velocities, kept.angular_velocities[:2])
