@@ -104,7 +104,7 @@ BAD_VALUES = [
     (("checkpoint",), {"keep": 2, "evry": 10},
      "checkpoint.evry = 10: unknown key; allowed: path, every, interval, keep (did you mean every?)"),
     (("extra",), 1, "extra = 1: unknown key; allowed: simulation, materials, pairs, walls, meshes, schedule, particles, "
-                    "inserters, output, checkpoint"),
+                    "inserters, outlets, output, checkpoint"),
 ]
 
 

@@ -36,6 +36,7 @@ PYBIND11_MODULE(_core, m) {
   py::class_<tsubu::Simulation> sim(m, "Simulation");
   register_simulation(sim);
   register_state(sim);
+  register_boundaries(sim);
   register_options(m);  // after Simulation: validate_options takes one
   // The accepted names of every string-valued argument, for the Python checks (those the
   // registrations above bound).

@@ -185,6 +185,81 @@ void Simulation::set_contact_state(const ContactState& pairs, const ContactState
   }
 }
 
+// ---- grains as boundaries (boundary.hpp) ------------------------------------------------------
+
+void Simulation::save_boundaries(archive::Writer& w) const {
+  std::vector<std::int64_t> ids(fixed_.ids.begin(), fixed_.ids.end());
+  w.integers("fixed_id", ids);
+  w.reals("fixed_velocity", fixed_.v);
+  w.reals("fixed_angular_velocity", fixed_.w);
+  std::vector<std::int64_t> kind, inside;
+  std::vector<double> a, b;
+  for (const Outlet& o : outlets_) {
+    kind.push_back(o.kind);
+    inside.push_back(o.remove_inside ? 1 : 0);
+    a.insert(a.end(), o.a.data(), o.a.data() + 3);
+    b.insert(b.end(), o.b.data(), o.b.data() + 3);
+  }
+  w.integers("outlet_kind", kind);
+  w.integers("outlet_remove_inside", inside);
+  w.reals("outlet_a", a);
+  w.reals("outlet_b", b);
+  w.integers("removed_id", std::vector<std::int64_t>(removed_.id.begin(), removed_.id.end()));
+  w.integers("removed_outlet", std::vector<std::int64_t>(removed_.outlet.begin(), removed_.outlet.end()));
+  w.integers("removed_step", std::vector<std::int64_t>(removed_.step.begin(), removed_.step.end()));
+  w.reals("removed_time", removed_.time);
+  w.reals("removed_position", removed_.position);
+  w.reals("removed_velocity", removed_.velocity);
+}
+
+void Simulation::restore_boundaries(archive::Reader& r) {
+  const std::vector<std::int64_t> ids = r.integers("fixed_id");
+  const std::size_t nf = ids.size();
+  const std::vector<double> v = r.reals("fixed_velocity", 3 * nf), w = r.reals("fixed_angular_velocity", 3 * nf);
+  fixed_ = FixedSpheres();
+  ParticleStore& ps = particles_.arrays();
+  for (std::size_t k = 0; k < nf; ++k) {
+    if (!particles_.has(ids[k]) || (k > 0 && ids[k] <= ids[k - 1]))
+      r.fail("fixed sphere " + std::to_string(ids[k]) + ": not a sphere of the scene, or not in increasing order");
+    for (int c = 0; c < 3; ++c)
+      if (!std::isfinite(v[3 * k + c]) || !std::isfinite(w[3 * k + c]))
+        r.fail("fixed sphere " + std::to_string(ids[k]) + ": a motion that is not finite");
+    fixed_.ids.push_back(ids[k]);
+    const std::size_t i = static_cast<std::size_t>(particles_.index(ids[k]));
+    ps.inv_mass[i] = 0;
+    ps.inv_inertia[i] = 0;
+  }
+  fixed_.v = v;
+  fixed_.w = w;
+  if (nf > 0 && lists_.built(particles_.size())) lists_.cache_terms(list_context());
+  const std::vector<std::int64_t> kind = r.integers("outlet_kind");
+  const std::size_t no = kind.size();
+  const std::vector<std::int64_t> inside = r.integers("outlet_remove_inside", no);
+  const std::vector<double> a = r.reals("outlet_a", 3 * no), b = r.reals("outlet_b", 3 * no);
+  outlets_.clear();
+  for (std::size_t k = 0; k < no; ++k) {
+    Outlet o;
+    if (kind[k] != Outlet::PlaneOutlet && kind[k] != Outlet::BoxOutlet)
+      r.fail("outlet " + std::to_string(k) + " of unknown kind " + std::to_string(kind[k]));
+    o.kind = static_cast<int>(kind[k]);
+    o.remove_inside = inside[k] != 0;
+    o.a = Vec3(a[3 * k], a[3 * k + 1], a[3 * k + 2]);
+    o.b = Vec3(b[3 * k], b[3 * k + 1], b[3 * k + 2]);
+    if (!o.a.allFinite() || !o.b.allFinite()) r.fail("outlet " + std::to_string(k) + " is not finite");
+    outlets_.push_back(o);
+  }
+  const std::vector<std::int64_t> id = r.integers("removed_id");
+  const std::size_t nr = id.size();
+  const std::vector<std::int64_t> by = r.integers("removed_outlet", nr), step = r.integers("removed_step", nr);
+  removed_ = RemovalLog();
+  removed_.id.assign(id.begin(), id.end());
+  removed_.outlet.assign(by.begin(), by.end());
+  removed_.step.assign(step.begin(), step.end());
+  removed_.time = r.reals("removed_time", nr);
+  removed_.position = r.reals("removed_position", 3 * nr);
+  removed_.velocity = r.reals("removed_velocity", 3 * nr);
+}
+
 // ---- the parts' sections ------------------------------------------------------------------------
 
 namespace {
@@ -336,6 +411,10 @@ void Simulation::save(std::ostream& out) const {
     w.integers("element", std::vector<std::int64_t>(c.element.begin(), c.element.end()));
   });
   section("run", [&](archive::Writer& w) { run_state().save(w); });
+  // (Optional: written only for a scene with fixed spheres, outlets or removed spheres, so that
+  // other scenes' checkpoints are the bytes they were.)
+  if (!fixed_.empty() || !outlets_.empty() || removed_.size() > 0)
+    section("boundaries", [&](archive::Writer& w) { save_boundaries(w); });
   out.write(kCheckpointMagic, kMagicSize);
   put_le(out, kCheckpointVersion, 4);
   put_le(out, body.data().size(), 8);
@@ -432,6 +511,11 @@ Simulation Simulation::load(std::istream& in) {
   state.restore(run);
   run.finish();
   s.set_run_state(state);
+  if (top.next_is("boundaries")) {
+    archive::Reader b = top.section("boundaries");
+    s.restore_boundaries(b);
+    b.finish();
+  }
   top.finish();
   return s;
 }

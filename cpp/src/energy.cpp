@@ -133,13 +133,13 @@ void Simulation::for_each_contact_sum(Out&& out) const {
 
 void Simulation::get_forces(double* out) const {
   for_each_contact_sum([&](std::size_t k, const Vec3& F, const Vec3&) {
-    for (int c = 0; c < 3; ++c) out[3 * particles_.arrays().id[k] + c] = F[c] + particles_.arrays().mass[k] * opt_.gravity[c];
+    for (int c = 0; c < 3; ++c) out[3 * particles_.rank(particles_.arrays().id[k]) + c] = F[c] + particles_.arrays().mass[k] * opt_.gravity[c];
   });
 }
 
 void Simulation::get_torques(double* out) const {
   for_each_contact_sum([&](std::size_t k, const Vec3&, const Vec3& T) {
-    for (int c = 0; c < 3; ++c) out[3 * particles_.arrays().id[k] + c] = T[c];
+    for (int c = 0; c < 3; ++c) out[3 * particles_.rank(particles_.arrays().id[k]) + c] = T[c];
   });
 }
 
@@ -150,7 +150,10 @@ Energy Simulation::sphere_energy() const {
   particles_.for_each_id([&](Id, Index k) {
     const double m = ps.mass[k];
     e.translational += 0.5 * m * vec3(ps.v.data(), k).squaredNorm();
-    e.rotational += 0.5 / ps.inv_inertia[k] * vec3(ps.w.data(), k).squaredNorm();
+    // (a fixed sphere's inverse inertia is 0: its own, I = 2/5 m r^2 (1.3))
+    const double half_i = ps.inv_inertia[k] != 0 ? 0.5 / ps.inv_inertia[k]
+                                                 : 0.5 * (0.4 * m * ps.radius[k] * ps.radius[k]);
+    e.rotational += half_i * vec3(ps.w.data(), k).squaredNorm();
     e.gravitational -= m * opt_.gravity.dot(domain_.unwrapped(vec3(ps.x.data(), k), k));
     e.dissipated += ps.dissipated[k];
   });

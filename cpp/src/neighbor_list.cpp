@@ -363,11 +363,13 @@ void NeighborList::cache_terms(const Context& c) {
   const std::size_t width = c.law.entry_width;
   fit(near_entry, width * near_partner.size());
   const ParticleStore& ps = c.particles.arrays();
-  const double *mass = ps.mass.data(), *radius = ps.radius.data();
+  const double *mass = ps.mass.data(), *radius = ps.radius.data(), *inv_mass = ps.inv_mass.data();
   const int* material = ps.material.data();
   for (std::size_t q = 0; q < near_partner.size(); ++q) {
     const Index i = near_owner[q], j = near_partner[q];
-    const double m_eff = mass[i] * mass[j] / (mass[i] + mass[j]);
+    // A fixed sphere (inverse mass 0, boundary.hpp) is a wall to the other: its mass.
+    const double m_pair = mass[i] * mass[j] / (mass[i] + mass[j]);
+    const double m_eff = inv_mass[j] == 0 ? mass[i] : (inv_mass[i] == 0 ? mass[j] : m_pair);
     const double r_eff = radius[i] * radius[j] / (radius[i] + radius[j]);
     c.law.entry_terms(c.pairs(material[i], material[j]), m_eff, r_eff, near_entry.data() + width * q);
   }

@@ -153,38 +153,8 @@ void Simulation::remove_spheres(std::size_t count, const Id* ids) {
     gone[static_cast<std::size_t>(ids[k])] = 1;
   }
   if (count == 0) return;
-  // The contacts that stay are carried by ids, as a checkpoint carries them (the lists refer to
-  // internal indices, which the removal changes).
-  const bool carry = law_ != nullptr && lists_.built(particles_.size());
-  ContactState pairs, walls;
-  if (carry) {
-    auto drop = [&](ContactState& c, bool wall) {
-      ContactState kept;
-      kept.widths = c.widths;
-      for (std::size_t e = 0; e < c.owner.size(); ++e) {
-        if (gone[static_cast<std::size_t>(c.owner[e])] || (!wall && gone[static_cast<std::size_t>(c.partner[e])]))
-          continue;
-        kept.owner.push_back(c.owner[e]);
-        kept.partner.push_back(c.partner[e]);
-        for (std::size_t k = 0; k < EntryStore::kFields; ++k)
-          kept.values[k].insert(kept.values[k].end(), c.values[k].begin() + c.widths[k] * e,
-                                c.values[k].begin() + c.widths[k] * (e + 1));
-      }
-      c = std::move(kept);
-    };
-    pairs = contact_state(false);
-    walls = contact_state(true);
-    drop(pairs, false);
-    drop(walls, true);
-  }
-  particles_.remove(ids, count);
-  const long rebuilds = lists_.rebuilds, refreshes = lists_.refreshes;
-  lists_ = NeighborList();  // nothing to carry over from lists of the old indices
-  lists_.rebuilds = rebuilds;
-  lists_.refreshes = refreshes;
-  energy_ref_valid_ = false;
-  run_.last_move = 0;
-  if (carry) set_contact_state(pairs, walls);
+  const std::vector<int> by_hand(count, -1);
+  remove_now(count, ids, by_hand.data());
 }
 
 Id Simulation::add_sphere(const Vec3& position, double radius, int material,
@@ -434,7 +404,8 @@ long Simulation::run(long steps, const std::function<bool()>& should_stop, doubl
 
 detail::World Simulation::world() {
   return {particles_, walls_, lists_, contacts_,        domain_,        pairs_,
-          opt_,       run_,   *this,  sphere_material_, threads_used(), max_move_};
+          opt_,       run_,   *this,  sphere_material_, threads_used(), max_move_,
+          fixed_.empty() ? nullptr : &fixed_, !outlets_.empty()};
 }
 
 NeighborList::Context Simulation::list_context() {
@@ -461,7 +432,7 @@ void Simulation::start_audit(bool walls_move) {
 }
 
 void Simulation::audit_energy() {
-  if (law_ == nullptr || !energy_ref_valid_ || walls_.moving() || energy_ref_gravity_ != opt_.gravity ||
+  if (law_ == nullptr || !energy_ref_valid_ || walls_.moving() || fixed_.moving() || energy_ref_gravity_ != opt_.gravity ||
       !lists_.built(particles_.size()) || run_.step == energy_ref_step_)
     return;
   audit();

@@ -277,7 +277,7 @@ class Inserter:
                 angular_velocities=np.tile(self.angular_velocity, (int(placed.sum()), 1)),
                 check_overlaps=False)
             self._inserted += len(ids)
-            self._inserted_mass += float(np.sum(sim.masses[ids]))
+            self._inserted_mass += float(np.sum(sim.masses[sim.rows(ids)]))
         # what found no room stays at the head of the queue, in stream order
         self._queue = np.concatenate([radii[~placed], self._queue[due:]])
         self._pending = int(np.count_nonzero(~placed))

@@ -53,16 +53,26 @@ def _pyevtk_vtk():
 
 # ---- the arrays --------------------------------------------------------------------------------
 
-def _coordination(size: int, contacts: dict) -> np.ndarray:
-    """Contacts per sphere: a pair counts for both spheres, a wall contact for its sphere."""
-    i, j = contacts["i"], contacts["j"]
-    return (np.bincount(i, minlength=size) + np.bincount(j[j >= 0], minlength=size)).astype(np.int64)
+def _ids(sim) -> np.ndarray:
+    """Each row's sphere id (``sim.ids``; row = id for an object without them)."""
+    ids = getattr(sim, "ids", None)
+    return np.arange(sim.size, dtype=np.int64) if ids is None else np.asarray(ids, dtype=np.int64)
+
+
+def _coordination(ids: np.ndarray, contacts: dict) -> np.ndarray:
+    """Contacts per sphere (rows of ``ids``): a pair counts for both spheres, a wall contact for
+    its sphere."""
+    size = len(ids)
+    i, j = np.asarray(contacts["i"], dtype=np.int64), np.asarray(contacts["j"], dtype=np.int64)
+    i, j = np.searchsorted(ids, i), np.searchsorted(ids, j[j >= 0])  # ids to rows
+    return (np.bincount(i, minlength=size) + np.bincount(j, minlength=size)).astype(np.int64)
 
 
 def particle_data(sim, contacts: dict | None = None) -> dict:
-    """The per-sphere arrays that the writers store, in id order (row k = sphere id k).
+    """The per-sphere arrays that the writers store, in id order (row k = sphere ``id[k]``;
+    row = id until a sphere is removed).
 
-    Keys: ``id`` (N,) int64; ``position`` [m], ``velocity`` [m/s], ``angular_velocity``
+    Keys: ``id`` (N,) int64, ``sim.ids``; ``position`` [m], ``velocity`` [m/s], ``angular_velocity``
     [rad/s], ``force`` [N] and ``torque`` [N m] of the last step, each (N, 3) float64;
     ``radius`` [m] and ``mass`` [kg] (N,) float64; ``material`` (N,) int64, the index into
     ``sim.materials``; ``coordination`` (N,) int64, the number of contacts of each sphere in
@@ -70,9 +80,9 @@ def particle_data(sim, contacts: dict | None = None) -> dict:
     ``contacts``: the dict of ``sim.contacts()`` when already at hand.
     """
     contacts = sim.contacts() if contacts is None else contacts
-    n = sim.size
+    ids = np.array(_ids(sim))
     return {
-        "id": np.arange(n, dtype=np.int64),
+        "id": ids,
         "position": sim.positions,
         "velocity": sim.velocities,
         "angular_velocity": sim.angular_velocities,
@@ -81,7 +91,7 @@ def particle_data(sim, contacts: dict | None = None) -> dict:
         "material": sim.material_ids,
         "force": sim.forces,
         "torque": sim.torques,
-        "coordination": _coordination(n, contacts),
+        "coordination": _coordination(ids, contacts),
     }
 
 
@@ -108,8 +118,9 @@ def contact_data(sim, contacts: dict | None = None, positions=None) -> dict:
     j = np.asarray(contacts["j"], dtype=np.int64)
     wall = np.asarray(contacts["wall"], dtype=np.int64)
     force = np.asarray(contacts["force"], dtype=np.float64).reshape(-1, 3)
-    start = x[i]
-    end = x[np.maximum(j, 0)]
+    ids = _ids(sim)  # contacts name ids; the positions are by row
+    start = x[np.searchsorted(ids, i)]
+    end = x[np.searchsorted(ids, np.maximum(j, 0))]
     walls = np.flatnonzero(j < 0)
     if walls.size:
         if positions is None and "wall_point" in contacts:  # (a mesh's: its nearest triangle)

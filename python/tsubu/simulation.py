@@ -416,7 +416,8 @@ class Simulation:
         Returns
         -------
         numpy.ndarray of int64, shape (N,)
-            The new spheres' ids, their rows in :attr:`positions` and the other arrays.
+            The new spheres' ids; their rows in :attr:`positions` and the other arrays too,
+            until a sphere is removed (then :meth:`rows`).
 
         Raises
         ------
@@ -1134,7 +1135,8 @@ class Simulation:
         The file holds the spheres (positions, velocities, angular velocities, radii,
         materials, dissipated energy), the walls and their motion, the materials and pair
         overrides, the options, every touching contact's history and roughness state, the
-        step counter and time, the energy bookkeeping, the inserters' progress, and
+        step counter and time, the energy bookkeeping, the fixed spheres and their motion, the
+        outlets and the log of removed spheres (:meth:`removed`), the inserters' progress, and
         ``metadata`` (default :attr:`metadata`; any JSON-able dict). :meth:`load` gives a
         Simulation whose runs continue bit for bit as this one's would.
 
@@ -1194,7 +1196,8 @@ class Simulation:
 
     @property
     def positions(self) -> np.ndarray:
-        """Centre positions [m], shape (N, 3), row = id, a read-only copy. Assigning moves the
+        """Centre positions [m], shape (N, 3), row k the sphere ``ids[k]`` (row = id until a
+        sphere is removed, :attr:`ids`), a read-only copy. Assigning moves the
         spheres (``sim.positions = x``); spheres moved after the first run are checked for
         overlaps when the next run starts, as the first run checks all (``initial_overlap``)."""
         return _read_only(self._core.positions())
@@ -1369,6 +1372,220 @@ class Simulation:
         ``near list`` with the contact state, ``walls``, ``scratch`` kept for the next rebuild).
         Capacities, not the process's resident memory (benchmarks/throughput.py reports both)."""
         return self._core.memory_bytes()
+
+    # ---- grains as boundaries (docs/boundaries.md) --------------------------------------------
+    @property
+    def ids(self) -> np.ndarray:
+        """Each row's sphere id, int64, shape (N,), increasing, a read-only copy. Ids are handed
+        out in the order of addition and never reused: until a sphere is removed ``ids`` is
+        0..N-1 and row = id; after :meth:`remove_spheres` or an outlet, the arrays
+        (:attr:`positions`, :attr:`velocities`, ...) hold the spheres left, by increasing id,
+        and row k is the sphere ``ids[k]`` (:meth:`rows` maps ids to rows)."""
+        return _read_only(self._core.get_ids())
+
+    def rows(self, ids) -> np.ndarray:
+        """The rows of the spheres ``ids`` (int or array_like of int) in :attr:`positions` and
+        the other per-sphere arrays: int64, shape (M,). ValueError naming an id that is no
+        sphere's (never added, or removed)."""
+        return np.searchsorted(self._core.get_ids(), self._sphere_ids("ids", ids))
+
+    def _sphere_ids(self, name: str, ids, unique: bool = False) -> np.ndarray:
+        """``ids`` as a 1-d int64 array of ids of spheres present; TypeError for non-integers,
+        ValueError naming an unknown (or, with ``unique``, repeated) id."""
+        a = np.asarray(ids)
+        if a.dtype == object or a.dtype.kind not in "iu" or a.dtype == bool:
+            if a.size == 0 and a.dtype.kind == "f":
+                a = a.astype(np.int64)
+            else:
+                raise TypeError(f"{name} must be sphere ids (integers), got {ids!r}")
+        if a.ndim > 1:
+            raise ValueError(f"{name} must be an id or a 1-d sequence of ids, got shape {a.shape}")
+        a = a.reshape(-1).astype(np.int64)
+        have = self._core.get_ids()
+        at = np.searchsorted(have, a)
+        bad = (at >= len(have)) | (have[np.minimum(at, max(len(have) - 1, 0))] != a) if len(have) \
+            else np.ones(len(a), dtype=bool)
+        if bad.any():
+            k = int(a[np.argmax(bad)])
+            removed = k in set(self._core.removed()["id"].tolist())
+            raise ValueError(f"{name}: no sphere has id {k}" + (
+                " (it was removed)" if removed else
+                f" (ids run from 0 to {self._core.size + len(self._core.removed()['id']) - 1})"))
+        if unique and len(np.unique(a)) != len(a):
+            u, count = np.unique(a, return_counts=True)
+            raise ValueError(f"{name}: sphere {int(u[np.argmax(count > 1)])} is listed twice")
+        return a
+
+    def fix_spheres(self, ids, velocity=(0.0, 0.0, 0.0), angular_velocity=(0.0, 0.0, 0.0)) -> None:
+        """Fix spheres, or give them a prescribed motion: from now on each moves with constant
+        ``velocity`` and spins with constant ``angular_velocity`` (zero: glued in place),
+        whatever the forces on it and gravity. The glued base of a chute, the rough plates of a
+        shear cell.
+
+        A fixed sphere still exerts contact forces on the others (and :attr:`forces` reports
+        those on it, with its weight m g), and has infinite mass to them: a contact between a
+        free and a fixed sphere takes the free sphere's mass as its reduced mass, as a wall
+        contact does (its restitution is the pair's against a wall). A sphere's velocity and
+        spin are set to the prescribed ones at once. Fixing a fixed sphere again sets its
+        motion anew. While some fixed sphere moves or spins it works on the scene as a moving
+        wall does, and the energy audit is off (docs/boundaries.md).
+
+        Parameters
+        ----------
+        ids : int or array_like of int, shape (M,)
+            The spheres' ids (:attr:`ids`).
+        velocity : array_like, shape (3,) or (M, 3)
+            Velocity [m/s]: one for all or one per sphere. Default (0, 0, 0).
+        angular_velocity : array_like, shape (3,) or (M, 3)
+            Angular velocity [rad/s], about each sphere's own centre. Default (0, 0, 0).
+
+        Raises
+        ------
+        TypeError
+            For ids that are not integers, or motions that are not numbers.
+        ValueError
+            For an unknown or repeated id, motions of another shape or not finite, or a
+            velocity faster than light.
+        """
+        a = self._sphere_ids("ids", ids, unique=True)
+        v = self._motions("velocity", velocity, len(a))
+        w = self._motions("angular_velocity", angular_velocity, len(a))
+        self._core.fix_spheres(a, v, w)
+
+    @staticmethod
+    def _motions(name: str, value, n: int) -> np.ndarray:
+        """One 3-vector for all n spheres, or an (n, 3) array."""
+        if np.ndim(value) == 1:
+            return np.tile(np.array(_checks.vec3(name, value)), (n, 1))
+        return _checks.points(name, value, n)
+
+    def free_spheres(self, ids) -> None:
+        """Release fixed spheres (:meth:`fix_spheres`): they keep the velocity and spin they
+        had and move under forces and gravity again. A free sphere listed is left as it is.
+
+        Parameters
+        ----------
+        ids : int or array_like of int
+            The spheres' ids.
+
+        Raises
+        ------
+        TypeError, ValueError
+            For ids that are not integers, or an id that is no sphere's.
+        """
+        self._core.free_spheres(self._sphere_ids("ids", ids))
+
+    @property
+    def fixed(self) -> np.ndarray:
+        """Whether each sphere is fixed (:meth:`fix_spheres`), bool, shape (N,), row as in
+        :attr:`positions`, a read-only copy."""
+        return _read_only(self._core.get_fixed())
+
+    def remove_spheres(self, ids) -> None:
+        """Remove spheres from the scene. The others keep their ids, their state and their
+        contacts' history (a run continues bit for bit as if the removed spheres had been far
+        away); the removed spheres' contacts end and their energy leaves with them. Ids are
+        never reused: the per-sphere arrays then hold the spheres left by increasing id
+        (:attr:`ids`). Each removal is logged in :meth:`removed` (outlet -1).
+
+        Parameters
+        ----------
+        ids : int or array_like of int
+            The spheres' ids.
+
+        Raises
+        ------
+        TypeError, ValueError
+            For ids that are not integers, or an unknown or repeated id.
+        """
+        self._core.remove_spheres(self._sphere_ids("ids", ids, unique=True))
+
+    def add_outlet(self, point=None, normal=None, *, lo=None, hi=None,
+                   remove: str = "outside") -> int:
+        """Add an outlet: spheres whose centre it finds beyond it at the end of a step are
+        removed there (inside the run's loop, no Python per step) and logged
+        (:meth:`removed`). Returns its index (an int, counted from 0).
+
+        Two forms:
+
+        - a plane, ``point`` and ``normal``: the normal points into the scene, as a wall's
+          does; a sphere whose centre is behind the plane, (x - point) . normal < 0, is
+          removed (a hopper's outlet below the orifice: ``normal=(0, 0, 1)``);
+        - a box, ``lo`` and ``hi`` (its corners): with ``remove="outside"`` (default) a sphere
+          whose centre leaves the box is removed; with ``remove="inside"`` one whose centre is
+          in it (a sink). The box's faces count as inside.
+
+        A sphere already beyond an outlet when it is added goes at the end of the next step.
+        Results stay bit-identical for any thread count, and a checkpoint keeps the outlets and
+        the log.
+
+        Parameters
+        ----------
+        point, normal : array_like, shape (3,)
+            The plane form: a point of the plane [m] and its normal (any length > 0).
+        lo, hi : array_like, shape (3,)
+            The box form: its lower and upper corners [m], lo <= hi along every axis.
+        remove : {"outside", "inside"}
+            The box form: which side of the box removes spheres.
+
+        Raises
+        ------
+        TypeError
+            For coordinates that are not numbers.
+        ValueError
+            For neither or both forms, a zero or non-finite normal, a box with lo > hi, or a
+            ``remove`` other than "outside" or "inside".
+        """
+        plane = point is not None or normal is not None
+        box = lo is not None or hi is not None
+        if plane == box:
+            raise ValueError("add_outlet takes either point and normal (a plane) or lo and hi "
+                             f"(a box), got point={point!r}, normal={normal!r}, lo={lo!r}, hi={hi!r}")
+        if plane:
+            if point is None or normal is None:
+                raise ValueError(f"a plane outlet needs both point and normal, got point={point!r}, "
+                                 f"normal={normal!r}")
+            p, n = _checks.vec3("point", point), _checks.vec3("normal", normal)
+            if not any(n):
+                raise ValueError(f"normal must be a non-zero vector, got {normal!r}")
+            return self._core.add_outlet(0, p, n, False)
+        if lo is None or hi is None:
+            raise ValueError(f"a box outlet needs both lo and hi, got lo={lo!r}, hi={hi!r}")
+        a, b = _checks.vec3("lo", lo), _checks.vec3("hi", hi)
+        if any(x > y for x, y in zip(a, b)):
+            raise ValueError(f"lo must be <= hi along every axis, got lo={lo!r}, hi={hi!r}")
+        remove = _checks.choice("remove", remove, ("outside", "inside"))
+        return self._core.add_outlet(1, a, b, remove == "inside")
+
+    @property
+    def outlets(self) -> list:
+        """The outlets (:meth:`add_outlet`), each a dict, in the order added.
+
+        A plane has the keys ``point`` and ``normal`` (a unit vector), a box ``lo``, ``hi`` and
+        ``remove``."""
+        out = []
+        for o in self._core.outlets():
+            if o["kind"] == 0:
+                out.append({"point": tuple(o["a"]), "normal": tuple(o["b"])})
+            else:
+                out.append({"lo": tuple(o["a"]), "hi": tuple(o["b"]),
+                            "remove": "inside" if o["remove_inside"] else "outside"})
+        return out
+
+    def removed(self) -> dict:
+        """Every sphere removed so far, in the order of removal (by step, then by id).
+
+        Returns
+        -------
+        dict of numpy arrays, one row per removed sphere (R in all)
+            - ``id``: its id, int64, shape (R,);
+            - ``outlet``: the outlet that took it (:meth:`add_outlet`'s index), or -1 for
+              :meth:`remove_spheres`, int, shape (R,);
+            - ``step``, ``time``: the step count and time [s] when it left (an outlet removes
+              at the end of a step: the step just completed), shapes (R,);
+            - ``position``, ``velocity``: its centre [m] and velocity [m/s] then, shape (R, 3).
+        """
+        return self._core.removed()
 
     def __reduce__(self):
         """Pickling, ``copy.copy`` and ``copy.deepcopy``: through the checkpoint format (see the

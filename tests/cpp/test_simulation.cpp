@@ -230,6 +230,41 @@ void test_overlaps_after_the_first_run() {
   CHECK(u.run(1) == 1);
 }
 
+// Grains as boundaries from C++: a glued sphere stays put under gravity and load, an outlet
+// removes a falling sphere at the end of the step its centre crosses, with a log entry, and
+// a checkpoint keeps both (boundary.hpp).
+void test_fixed_spheres_and_outlets() {
+  Simulation s;
+  const int g = s.add_material(glass());
+  s.add_sphere(Vec3(0, 0, 0), kR, g);
+  s.add_sphere(Vec3(0, 0, 2 * kR - 1e-7), kR, g);
+  s.add_sphere(Vec3(1, 0, 0), kR, g);
+  const Id glued = 0;
+  const double zero[3] = {0, 0, 0};
+  s.fix_spheres(1, &glued, zero, zero);
+  Outlet o;
+  o.a = Vec3(0, 0, -0.01);
+  o.b = Vec3(0, 0, 1);
+  CHECK(s.add_outlet(o) == 0);
+  s.options().dt = 1e-6;
+  CHECK(s.run(50000) == 50000);  // 0.05 s: sphere 2 falls 12 mm, past the outlet at -10 mm
+  std::vector<double> x(3 * s.size());
+  s.get_positions(x.data());
+  CHECK(s.size() == 2);
+  CHECK(x[0] == 0 && x[1] == 0 && x[2] == 0);          // glued
+  CHECK(std::abs(x[5] - (2 * kR)) < 0.05 * kR);        // resting on it
+  const RemovalLog& log = s.removed();
+  CHECK(log.size() == 1 && log.id[0] == 2 && log.outlet[0] == 0);
+  CHECK(log.position[2] < -0.01 && log.position[2] > -0.01 - 1e-5);
+  std::stringstream bytes;
+  s.save(bytes);
+  Simulation t = Simulation::load(bytes);
+  CHECK(t.fixed_spheres().ids == std::vector<Id>{0});
+  CHECK(t.outlets().size() == 1 && t.removed().id == log.id);
+  const Id bad = 7;
+  CHECK_THROWS(s.fix_spheres(1, &bad, zero, zero), InvalidArgument);
+}
+
 }  // namespace
 
 int main() {
@@ -240,5 +275,6 @@ int main() {
   test_errors();
   test_sparse_grid_and_list_limit();
   test_overlaps_after_the_first_run();
+  test_fixed_spheres_and_outlets();
   return tsubu_test::finish("test_simulation");
 }

@@ -16,6 +16,7 @@
 #include <vector>
 
 #include "archive.hpp"
+#include "boundary.hpp"
 #include "contact_store.hpp"
 #include "domain.hpp"
 #include "engine/world.hpp"
@@ -130,6 +131,31 @@ class Simulation : private detail::RunHooks {
 
   Options& options() { return opt_; }
   const Options& options() const { return opt_; }
+
+  // ---- grains as boundaries (boundary.hpp, docs/boundaries.md) -------------------------------
+  // Fixes the spheres with the given ids: from now on each moves with its velocity and spin
+  // (3 values per id each; zero: glued), whatever the forces and gravity, and has infinite mass
+  // to the others (a contact with it takes the free sphere's mass, as a wall contact does).
+  // Fixing a fixed sphere again sets its motion anew. Throws InvalidArgument for an unknown or
+  // repeated id or a motion that is not finite or faster than kMaxWallSpeed; std::logic_error
+  // during a run.
+  void fix_spheres(std::size_t count, const Id* ids, const double* velocities,
+                   const double* angular_velocities);
+  // Frees them again (a free sphere listed is ignored): they keep their velocity and spin.
+  void free_spheres(std::size_t count, const Id* ids);
+  const FixedSpheres& fixed_spheres() const { return fixed_; }
+  // Whether each sphere is fixed (1) or free (0), in id order.
+  void get_fixed(std::uint8_t* out) const;
+  // Each sphere's id, in id order (the rows of the arrays in id order).
+  void get_ids(Id* out) const;
+  // Adds an outlet (boundary.hpp: a plane or a box; its normal is normalised here). Spheres it
+  // takes are removed at the end of the step where their centre is found beyond it, and logged
+  // (removed()). Returns its index. InvalidArgument for a non-finite point or a zero normal, or a
+  // box with lo > hi.
+  int add_outlet(const Outlet& outlet);
+  const std::vector<Outlet>& outlets() const { return outlets_; }
+  // Every sphere removed so far, by an outlet or by remove_spheres.
+  const RemovalLog& removed() const { return removed_; }
 
   // ---- time stepping -----------------------------------------------------------------------
   // The stability bound of symplectic Euler, (2.31) with spring and dashpot taken together:
@@ -349,12 +375,20 @@ class Simulation : private detail::RunHooks {
   // changes the scene's energy from outside (state set, spheres or walls added, a wall set
   // moving, gravity or pair parameters changed), so that chunked runs are checked as one.
   void start_audit(bool walls_move) override;
-  void audit() override { check_energy(energy_ref_); }
+  // (A removal during the run leaves the reference invalid: the audit then takes it anew.)
+  void audit() override {
+    if (!energy_ref_valid_) return start_audit(false);
+    check_energy(energy_ref_);
+  }
   void steer_walls() override;
   [[noreturn]] void report_overlap(double dt) const override;
   [[noreturn]] void report_nonfinite() const override;
   [[noreturn]] void report_nonfinite_velocity() const override;
   [[noreturn]] void report_fast(double max_move) const override;
+  void remove_outgoing() override;
+  // remove_spheres without the checks of the ids and of a run, logging the spheres removed by
+  // outlet `outlet[k]` (-1: by remove_spheres).
+  void remove_now(std::size_t count, const Id* ids, const int* outlet);
   // A moving wall faster than light (kMaxWallSpeed) where a sphere is: InvalidArgument.
   void check_wall_speeds() const;
 
@@ -473,6 +507,14 @@ class Simulation : private detail::RunHooks {
   long energy_ref_step_ = 0;
   Vec3 energy_ref_gravity_ = Vec3::Zero();
   double max_move_ = 0;  // max_move(), taken when a run starts
+
+  // Grains as boundaries.
+  FixedSpheres fixed_;
+  std::vector<Outlet> outlets_;
+  RemovalLog removed_;
+  // The checkpoint section of the three (checkpoint.cpp; absent when all are empty).
+  void save_boundaries(archive::Writer& w) const;
+  void restore_boundaries(archive::Reader& r);
 };
 
 }  // namespace tsubu

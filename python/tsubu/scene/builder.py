@@ -504,6 +504,9 @@ class _Builder:
             self.particles(sim, f"particles[{k}]", block)
         for k, spec in enumerate(s.get("inserters", [])):
             self.inserter(sim, f"inserters[{k}]", spec)
+        for k, spec in enumerate(s.get("outlets", [])):
+            given = {key: v for key, v in spec.items() if key != "shape"}
+            self.call(f"outlets[{k}]", given, sim.add_outlet, **given)
         self.time_step(sim, s["simulation"])
         out_dir = self.output_directory(output_directory)
         end_time = sim.time + s["simulation"]["duration"]
@@ -628,7 +631,7 @@ class _Builder:
         else:
             fill = _fill()
             region = self.region(_join(path, "region"), block["region"])
-            skip = ("generator", "material", "region", "velocity", "angular_velocity")
+            skip = ("generator", "material", "region", "velocity", "angular_velocity", "fixed")
             given = {k: v for k, v in block.items() if k not in skip}
             if generator == "lattice":
                 packing = self.call(path, given, fill.lattice, region, **given)
@@ -649,8 +652,11 @@ class _Builder:
             part = slice(start, stop)
             v = None if velocities is None else velocities[part]
             w = None if angular is None else angular[part]
-            self.call(path, {}, sim.add_spheres, positions[part], radii[part], material, velocities=v,
-                      angular_velocities=w)
+            ids = self.call(path, {}, sim.add_spheres, positions[part], radii[part], material,
+                            velocities=v, angular_velocities=w)
+            if block.get("fixed", False):  # the block's motion, prescribed (a file's: glued)
+                motion = {k: block[k] for k in ("velocity", "angular_velocity") if k in block}
+                self.call(path, motion, sim.fix_spheres, ids, **motion)
             self.batches.append((positions[part], radii[part], material, v))
 
     def read_particles(self, path: str, block: dict):

@@ -300,7 +300,11 @@ def _build_spec() -> Table:
     }, doc="An infinite plane wall (Simulation.add_plane).", name="walls")
 
     common = {"material": Field(material_name, "The spheres' material (a name from [materials]).",
-                                required=True)}
+                                required=True),
+              "fixed": Field(Boolean(), "Fix the block's spheres (Simulation.fix_spheres): they "
+                                        "move with the block's velocity and spin with its "
+                                        "angular_velocity (glued without them), whatever the forces "
+                                        "and gravity; a file's spheres are glued.", default="false")}
     particles = Tagged("generator", {
         "lattice": Table({
             **common,
@@ -327,6 +331,7 @@ def _build_spec() -> Table:
             **_motion("every sphere"),
         }, doc="A random non-overlapping packing (tsubu.fill.random_packing).", one_of=(("count", "solid_fraction"),)),
         "file": Table({
+            "fixed": common["fixed"],
             "material": Field(material_name, "The spheres' material. Without it, each sphere gets "
                                              "the material the file names (an .npz of "
                                              "tsubu.output.save_npz: its material and material_names "
@@ -356,6 +361,24 @@ def _build_spec() -> Table:
                           default="chosen from the region and velocity", unit="s"),
         "seed": Field(Integer(0, 2**64 - 1), "Seed of the positions and sizes.", default="0"),
     }, doc="Pours spheres during the run (Simulation.add_inserter).", name="inserters")
+
+    outlet = Tagged("shape", {
+        "plane": Table({
+            "point": Field(Vector(unit="m"), "A point of the plane.", required=True, unit="m"),
+            "normal": Field(Vector(nonzero=True), "Normal, pointing into the scene (as a wall's): a "
+                                                  "sphere whose centre is behind the plane is removed.",
+                            required=True),
+        }, doc="A plane: spheres whose centre crosses it are removed."),
+        "box": Table({
+            "lo": Field(Vector(unit="m"), "Lower corner.", required=True, unit="m"),
+            "hi": Field(Vector(unit="m"), "Upper corner (no coordinate below lo's).", required=True,
+                        unit="m"),
+            "remove": Field(String(("outside", "inside")), "Which spheres go: those whose centre "
+                                                          "is outside the box, or inside it.",
+                            default='"outside"'),
+        }, doc="A box: spheres whose centre leaves it (or enters it) are removed."),
+    }, doc="An outlet (Simulation.add_outlet): spheres it takes are removed at the end of a step "
+           "and logged (Simulation.removed()).", name="outlets")
 
     output = Table({
         "directory": Field(String(), "Where output and checkpoints go (relative to the scene file; "
@@ -393,6 +416,7 @@ def _build_spec() -> Table:
                           "schedule, for one or several walls)."),
         "particles": Field(ArrayOf(particles, "Blocks of spheres."), "Blocks of spheres."),
         "inserters": Field(ArrayOf(inserter, "Inserters."), "Inserters."),
+        "outlets": Field(ArrayOf(outlet, "Outlets."), "Outlets."),
         "output": Field(output, "Output."),
         "checkpoint": Field(checkpoint, "Checkpoints."),
     }, doc="A tsubu scene file (docs/scene-format.md).", name="scene")

@@ -29,11 +29,13 @@ struct Stepper {
     NeighborList& lists = s.lists;
     const double dt = run.dt;
     const bool moving = s.walls.moving();
+    // Fixed spheres with a prescribed motion work on the scene as a moving wall does.
+    const bool driven = moving || (s.fixed && s.fixed->moving());
     PhaseTimer clock(run.phase_seconds);
     // With fixed walls no energy enters the scene: the balance is checked every kEnergyCheck
     // steps (RunHooks::audit), which catches the bounded bursts that a dense pack run above its
     // own (lower) bound goes through without any overlap limit.
-    s.hooks.start_audit(moving);
+    s.hooks.start_audit(driven);
     // Large scenes with fixed walls fuse a step's particle pass with the next step's contact
     // pass whenever no neighbour list can be due in between; the first and the last step of a
     // run, and those that end on an energy check, run as two passes.
@@ -66,10 +68,12 @@ struct Stepper {
               fusable(s, dt, vmax2, found, min_mass) && !s.hooks.stop_due(clock.last());
       run.fused_steps += ready ? 1 : 0;
       const ParticleView pv(s, dt);
+      if (s.fixed) s.fixed->before(s.particles);
       const bool nonfinite =
           ready ? FusedPass<Law>::run(pv, ContactView(s, dt, 1), lists.reach_below,
                                       lists.reach_above, vmax2, found)
                 : PP::run(pv, vmax2);
+      if (s.fixed) vmax2 = std::max(vmax2, s.fixed->after(s.particles, dt));
       run.last_move = std::sqrt(vmax2) * dt;  // the distance any particle moved: dt max|v|
       lists.book_moved(run.last_move);
       if (nonfinite) s.hooks.report_nonfinite_velocity();
@@ -80,14 +84,18 @@ struct Stepper {
       s.domain.wrap(s.particles.arrays().x.data(), s.particles.size());
       ++run.step;
       run.time += dt;
-      if (!moving && run.step % kEnergyCheck == 0) s.hooks.audit();
+      if (s.outlets) s.hooks.remove_outgoing();
+      if (!driven && run.step % kEnergyCheck == 0) s.hooks.audit();
       clock.lap(Phase::Integrate);
     }
   }
 
   // Whether runs of this scene fuse steps where they can.
   static bool fuses(const World& s, bool moving) {
-    return Features<Law>::kBlocked && !moving && s.particles.size() >= ContactView::kFar;
+    // (A fixed sphere is put in place after the particle pass, and an outlet removes spheres
+    // after it: neither can be fused with the next contact pass.)
+    return Features<Law>::kBlocked && !moving && !s.fixed && !s.outlets &&
+           s.particles.size() >= ContactView::kFar;
   }
 
   // Whether this step may be fused with the next step's contact pass: no neighbour list can be

@@ -7,6 +7,7 @@
 #include <array>
 #include <chrono>
 
+#include "../boundary.hpp"
 #include "../contact_store.hpp"
 #include "../domain.hpp"
 #include "../material.hpp"
@@ -76,6 +77,9 @@ class RunHooks {
   [[noreturn]] virtual void report_nonfinite_velocity() const = 0;
   // The last step moved a sphere further than World::max_move (RunCounters::last_move).
   [[noreturn]] virtual void report_fast(double max_move) const = 0;
+  // At the end of a step of a scene with outlets (World::outlets): removes the spheres they
+  // take (docs/boundaries.md).
+  virtual void remove_outgoing() {}
 
  protected:
   ~RunHooks() = default;
@@ -94,6 +98,8 @@ struct World {
   int sphere_material;  // the one material of all spheres, else -1
   int threads;          // threads of the parallel passes (1 below options.parallel_min spheres)
   double max_move;      // m: the most a step may move a sphere (Simulation::max_move)
+  FixedSpheres* fixed = nullptr;  // the fixed spheres; null when there are none
+  bool outlets = false;           // whether the scene has outlets (RunHooks::remove_outgoing)
 };
 
 }  // namespace detail

@@ -1,0 +1,94 @@
+// Grains as boundaries (tsubu/boundary.hpp): fixed and prescribed spheres, removal, outlets and
+// the log of the spheres removed.
+#include "bindings.hpp"
+
+namespace tsubu_py {
+
+namespace {
+using Sim = tsubu::Simulation;
+using Ids = py::array_t<std::int64_t, py::array::c_style | py::array::forcecast>;
+
+std::size_t count_of(const Ids& ids) {
+  if (ids.ndim() != 1) throw py::value_error("ids must be a 1-d array");
+  return static_cast<std::size_t>(ids.shape(0));
+}
+}  // namespace
+
+void register_boundaries(py::class_<Sim>& cls) {
+  using namespace pybind11::literals;
+  cls.def(
+         "remove_spheres",
+         [](Sim& s, const Ids& ids) { s.remove_spheres(count_of(ids), ids.data()); }, "ids"_a)
+      .def(
+          "fix_spheres",
+          [](Sim& s, const Ids& ids, const Array& v, const Array& w) {
+            const std::size_t n = count_of(ids);
+            check_n3(v, n, "velocities");
+            check_n3(w, n, "angular_velocities");
+            s.fix_spheres(n, ids.data(), v.data(), w.data());
+          },
+          "ids"_a, "velocities"_a, "angular_velocities"_a)
+      .def(
+          "free_spheres", [](Sim& s, const Ids& ids) { s.free_spheres(count_of(ids), ids.data()); },
+          "ids"_a)
+      .def("get_fixed",
+           [](const Sim& s) {
+             py::array_t<std::uint8_t> out(static_cast<py::ssize_t>(s.size()));
+             s.get_fixed(out.mutable_data());
+             return out.attr("astype")("bool");
+           })
+      .def("fixed_motion",
+           [](const Sim& s) {
+             const tsubu::FixedSpheres& f = s.fixed_spheres();
+             const std::size_t n = f.ids.size();
+             py::array_t<std::int64_t> ids(static_cast<py::ssize_t>(n));
+             Array v = new_n3(n), w = new_n3(n);
+             std::copy(f.ids.begin(), f.ids.end(), ids.mutable_data());
+             std::copy(f.v.begin(), f.v.end(), v.mutable_data());
+             std::copy(f.w.begin(), f.w.end(), w.mutable_data());
+             return py::dict("ids"_a = ids, "velocities"_a = v, "angular_velocities"_a = w);
+           })
+      .def("get_ids",
+           [](const Sim& s) {
+             py::array_t<std::int64_t> out(static_cast<py::ssize_t>(s.size()));
+             s.get_ids(out.mutable_data());
+             return out;
+           })
+      .def(
+          "add_outlet",
+          [](Sim& s, int kind, std::array<double, 3> a, std::array<double, 3> b, bool inside) {
+            tsubu::Outlet o;
+            o.kind = kind;
+            o.a = to_vec3(a);
+            o.b = to_vec3(b);
+            o.remove_inside = inside;
+            return s.add_outlet(o);
+          },
+          "kind"_a, "a"_a, "b"_a, "remove_inside"_a)
+      .def("outlets",
+           [](const Sim& s) {
+             py::list out;
+             for (const tsubu::Outlet& o : s.outlets())
+               out.append(py::dict("kind"_a = o.kind, "a"_a = from_vec3(o.a), "b"_a = from_vec3(o.b),
+                                   "remove_inside"_a = o.remove_inside));
+             return out;
+           })
+      .def("removed", [](const Sim& s) {
+        const tsubu::RemovalLog& r = s.removed();
+        const std::size_t n = r.size();
+        py::array_t<std::int64_t> id(static_cast<py::ssize_t>(n)), step(static_cast<py::ssize_t>(n));
+        py::array_t<int> outlet(static_cast<py::ssize_t>(n));
+        Array time(static_cast<py::ssize_t>(n));
+        Array x = new_n3(n), v = new_n3(n);
+        std::copy(r.id.begin(), r.id.end(), id.mutable_data());
+        std::copy(r.step.begin(), r.step.end(), step.mutable_data());
+        std::copy(r.outlet.begin(), r.outlet.end(), outlet.mutable_data());
+        std::copy(r.time.begin(), r.time.end(), time.mutable_data());
+        std::copy(r.position.begin(), r.position.end(), x.mutable_data());
+        std::copy(r.velocity.begin(), r.velocity.end(), v.mutable_data());
+        return py::dict("id"_a = id, "outlet"_a = outlet, "step"_a = step, "time"_a = time,
+                        "position"_a = x, "velocity"_a = v);
+      });
+}
+
+}  // namespace tsubu_py
