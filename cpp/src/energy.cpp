@@ -235,7 +235,7 @@ void Simulation::measure_walls_now(const double* x) const {
     const Index lo = lists_.wall_offset[i], hi = lists_.wall_offset[i + 1];
     if (hi > lo)
       walls_.measure(vec3(x, i), ps.radius[i], lists_.wall_index.data(), lists_.wall_element.data(),
-                     wall_entries_.data() + lo, int(hi - lo), wall_planes_.data());
+                     wall_entries_.data() + lo, int(hi - lo), wall_planes_.data(), contacts_.walls.touch.data());
   }
 }
 

@@ -31,13 +31,19 @@ void Mesh::prepare() {
     const bool same = k > 0 && body_[std::size_t(order[k])] == body_[std::size_t(order[k - 1])];
     canon_[std::size_t(order[k])] = same ? canon_[std::size_t(order[k - 1])] : order[k];
   }
-  normal_.resize(nf);
+  tri_.resize(nf);
   std::vector<double> extent(nf);
   Vec3 lo = Vec3::Constant(std::numeric_limits<double>::infinity()), hi = -lo;
   for (std::size_t t = 0; t < nf; ++t) {
     const Vec3 &a = body_[std::size_t(faces_[t][0])], &b = body_[std::size_t(faces_[t][1])],
                &c = body_[std::size_t(faces_[t][2])];
-    normal_[t] = (b - a).cross(c - a).normalized();
+    Tri& T = tri_[t];
+    T.a = a, T.b = b, T.c = c;
+    T.n = (b - a).cross(c - a).normalized();
+    T.centroid = (a + b + c) / 3;
+    T.round = std::sqrt(std::max({(a - T.centroid).squaredNorm(), (b - T.centroid).squaredNorm(),
+                                  (c - T.centroid).squaredNorm()}));
+    for (std::size_t j = 0; j < 3; ++j) T.canon[j] = canon_[std::size_t(faces_[t][j])];
     const Vec3 tlo = a.cwiseMin(b).cwiseMin(c), thi = a.cwiseMax(b).cwiseMax(c);
     extent[t] = (thi - tlo).maxCoeff();
     lo = lo.cwiseMin(tlo);
@@ -67,7 +73,7 @@ void Mesh::prepare() {
       for (long y = c0[1]; y <= c1[1]; ++y)
         for (long x = c0[0]; x <= c1[0]; ++x) {
           const Vec3 mid = lo_ + h_ * Vec3(double(x) + 0.5, double(y) + 0.5, double(z) + 0.5);
-          if (std::abs(normal_[t].dot(mid - a)) > half_diagonal) continue;  // the plane misses it
+          if (std::abs(tri_[t].n.dot(mid - a)) > half_diagonal) continue;  // the plane misses it
           const std::uint64_t key = (std::uint64_t(z) * std::uint64_t(dims_[1]) + std::uint64_t(y)) *
                                         std::uint64_t(dims_[0]) + std::uint64_t(x);
           cell_tri.emplace_back(key, static_cast<Index>(t));
@@ -117,8 +123,8 @@ void Mesh::candidates(const Vec3& X, double ext, std::vector<Index>& out) const 
 }
 
 MeshPoint Mesh::nearest_body(const Vec3& p, Index t) const {
-  const Face& f = faces_[std::size_t(t)];
-  const Vec3 &a = body_[std::size_t(f[0])], &b = body_[std::size_t(f[1])], &c = body_[std::size_t(f[2])];
+  const Tri& T = tri_[std::size_t(t)];
+  const Vec3 &a = T.a, &b = T.b, &c = T.c;
   MeshPoint m;
   auto at_point = [&](const Vec3& q, MeshFeature feature) {
     const Vec3 d = p - q;
@@ -127,14 +133,14 @@ MeshPoint Mesh::nearest_body(const Vec3& p, Index t) const {
     if (m.distance > 0) {
       m.normal = d / m.distance;
     } else {  // the centre on the edge or vertex: the face's normal
-      m.normal = normal_[std::size_t(t)];
+      m.normal = T.n;
     }
     m.feature = feature;
     return m;
   };
-  auto vertex = [&](int k) { return MeshFeature{MeshFeature::kVertex, canon_[std::size_t(f[std::size_t(k)])], -1}; };
+  auto vertex = [&](int k) { return MeshFeature{MeshFeature::kVertex, T.canon[std::size_t(k)], -1}; };
   auto edge = [&](int k, int l) {
-    const Index u = canon_[std::size_t(f[std::size_t(k)])], v = canon_[std::size_t(f[std::size_t(l)])];
+    const Index u = T.canon[std::size_t(k)], v = T.canon[std::size_t(l)];
     return MeshFeature{MeshFeature::kEdge, std::min(u, v), std::max(u, v)};
   };
   // The Voronoi regions of the triangle (Ericson 5.1.5); a point on a region's border goes to
@@ -156,13 +162,24 @@ MeshPoint Mesh::nearest_body(const Vec3& p, Index t) const {
   if (va <= 0 && (d4 - d3) >= 0 && (d5 - d6) >= 0)
     return at_point(b + ((d4 - d3) / ((d4 - d3) + (d5 - d6))) * (c - b), edge(1, 2));
   // The face: the triangle's own plane through its first vertex, turned to the centre's side.
-  const Vec3& nf = normal_[std::size_t(t)];
+  const Vec3& nf = T.n;
   const double s = nf.dot(ap);
   m.normal = s >= 0 ? nf : Vec3(-nf);
   m.distance = std::abs(s);
   m.point = a;
   m.feature = MeshFeature{MeshFeature::kFace, t, -1};
   return m;
+}
+
+bool Mesh::clear_of(const Vec3& x, double r, Index t, Vec3& normal) const {
+  const Tri& T = tri_[std::size_t(t)];
+  const Vec3 d = to_body(x) - T.centroid;
+  const double s = T.n.dot(d), r2 = r * r;
+  // distance^2 >= s^2 + (in-plane distance to the centroid - round)^2, where positive
+  const double in_plane = std::sqrt(std::max(0.0, d.squaredNorm() - s * s)) - T.round;
+  const bool clear = s * s >= r2 || (in_plane > 0 && s * s + in_plane * in_plane >= r2);
+  if (clear) normal = (s >= 0 ? 1.0 : -1.0) * face_normal(t);
+  return clear;
 }
 
 MeshPoint Mesh::nearest(const Vec3& x, Index t) const {
@@ -174,18 +191,16 @@ MeshPoint Mesh::nearest(const Vec3& x, Index t) const {
 }
 
 bool Mesh::adjacent(Index s, Index t) const {
-  const Face &f = faces_[std::size_t(s)], &g = faces_[std::size_t(t)];
-  for (Index u : f)
-    for (Index v : g)
-      if (canon_[std::size_t(u)] == canon_[std::size_t(v)]) return true;
+  for (Index u : tri_[std::size_t(s)].canon)
+    for (Index v : tri_[std::size_t(t)].canon)
+      if (u == v) return true;
   return false;
 }
 
 bool Mesh::has(Index t, const MeshFeature& feature) const {
-  const Face& f = faces_[std::size_t(t)];
   auto holds = [&](Index v) {
-    for (Index u : f)
-      if (canon_[std::size_t(u)] == v) return true;
+    for (Index u : tri_[std::size_t(t)].canon)
+      if (u == v) return true;
     return false;
   };
   switch (feature.kind) {
@@ -229,7 +244,8 @@ double Mesh::shift_since(const Vec3& c0, const Orientation& q0, double reach) co
 
 std::size_t Mesh::bytes() const {
   return body_.capacity() * sizeof(Vec3) + faces_.capacity() * sizeof(Face) +
-         normal_.capacity() * sizeof(Vec3) + canon_.capacity() * sizeof(Index) +
+         tri_.capacity() * sizeof(Tri) +
+         canon_.capacity() * sizeof(Index) +
          keys_.capacity() * sizeof(std::uint64_t) + (start_.capacity() + tris_.capacity()) * sizeof(Index);
 }
 

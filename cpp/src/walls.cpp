@@ -66,7 +66,7 @@ void Walls::advance(double dt) {
 }
 
 void Walls::measure(const Vec3& x, double r, const Index* wall, const Index* element, const Index* entries,
-                    int n, Plane* tangent) const {
+                    int n, Plane* tangent, const std::uint8_t* touch) const {
   thread_local std::vector<MeshFeature> feature;
   thread_local std::vector<std::uint8_t> live;
   feature.resize(std::size_t(n));
@@ -78,7 +78,12 @@ void Walls::measure(const Vec3& x, double r, const Index* wall, const Index* ele
     Plane& T = tangent[e];
     T = planes_[w];
     if (kind_[w] != kMesh) continue;
-    const MeshPoint m = meshes_[std::size_t(slot_[w])].nearest(x, element[e]);
+    const Mesh& mesh = meshes_[std::size_t(slot_[w])];
+    if ((touch == nullptr || !touch[e]) && mesh.clear_of(x, r, element[e], T.normal)) {
+      T.point = x - (2 * r + 1) * T.normal;  // clear of the sphere
+      continue;  // (not live)
+    }
+    const MeshPoint m = mesh.nearest(x, element[e]);
     T.point = m.point;
     T.normal = m.normal;
     feature[std::size_t(k)] = m.feature;

@@ -104,8 +104,11 @@ class Walls {
   // get a tangent plane clear of the sphere: an edge or vertex of a triangle whose face touches,
   // the same edge or vertex seen from another triangle, a face coplanar with a touching
   // neighbour's (docs/geometry.md, "Contact with triangles").
+  // `touch` (by entry, or null): entries that touched at the last step get their nearest point
+  // even when a cheap bound says they cannot touch now (a contact that slides onto the next
+  // triangle hands its state over along its normal).
   void measure(const Vec3& x, double r, const Index* wall, const Index* element, const Index* entries,
-               int n, Plane* tangent) const;
+               int n, Plane* tangent, const std::uint8_t* touch = nullptr) const;
 
   // Takes the walls' positions now as the reference of the rebuild criterion, for particles
   // inside the box [lo, hi].
