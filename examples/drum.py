@@ -1,13 +1,15 @@
 """A rotating drum: the dynamic angle of repose and the driving torque against the Froude number.
 
-A drum of radius R = 16 d (``tsubu.mesh.cylinder``, 64 flat faces, axis along y, closed by its
-caps) is filled to about 35 % of its volume with about 1,200 glass-like beads (mean diameter
+A drum of radius R = 14 d (``tsubu.mesh.cylinder``, 64 flat faces, axis along y, closed by its
+caps) is filled to about 35 % of its volume with about 1,000 glass-like beads (mean diameter
 d = 2 mm, radii uniform within +-10 %, linear contacts, friction 0.5, rolling friction 0.05). Its
-side has the beads' friction, its caps (a second mesh from the same generator: the cap
-triangles) are frictionless and L = 5 d apart, so that the bed behaves as a slice of a long
+side has the beads' friction; its caps (a second mesh from the same generator: the cap
+triangles) are frictionless and L = 4 d apart, so that the bed behaves as a slice of a long
 drum. The drum turns by itself: its ``angular_velocity`` about its centre (no Python hook
-per step). It is spun at Froude numbers Fr = omega^2 R / g of 1e-3, 1e-2 and 1e-1 in turn (the
-rolling regime to the cascading one), each after the last in the same run: a spin-up, then a
+per step). It is spun at Froude numbers Fr = omega^2 R / g of 1e-1, 1e-2 and 1e-3 in turn (the
+cascading regime to the rolling one), each after the last in the same run: a spin-up (from rest
+for the first: the drum turns the bed up to its angle quickly at the highest speed; each slower
+speed then starts from a steeper bed, which relaxes within a few avalanches), then a
 measurement over a fixed time, in which:
 
 - the dynamic angle of repose: a straight line fitted to the free surface (the highest
@@ -17,16 +19,18 @@ measurement over a fixed time, in which:
 - the driving torque: minus the component along the axis of ``sim.wall_torques()`` of the
   drum's side (the caps, frictionless, add none), sampled every 2 ms and averaged.
 
-The torque is compared with the static estimate T = M g R_c sin(theta): in a steady state the
-bed's angular momentum about the axis is constant on average, so the drum's torque on the bed
-balances the moment of its weight, M g times the horizontal distance of its centre of mass
-from the axis (exactly, time-averaged; also measured, as M g x_c); if the bed is a circular
-segment tilted rigidly by the angle of its surface, that distance is R_c sin(theta), with
-R_c the distance of the centre of mass from the axis (the classic estimate of the drum's
-power draw, e.g. Rose & Sullivan; Nedderman's book states the same balance). Where the surface
-curves (cascading), the line's angle is the mean slope and the estimate drifts.
+The torque is compared with the static estimate T = M g R_c sin(theta), derived here from the
+balance of angular momentum about the axis: in a steady state the bed's angular momentum is
+constant on average, so the drum's torque on the bed balances the moment of the bed's weight,
+M g times the horizontal distance x_c of its centre of mass from the axis (time-averaged, this
+holds exactly: it is also measured, as M g x_c; frictionless caps add no torque about the axis).
+If the bed is a circular segment tilted rigidly by the angle theta of its surface, its centre of
+mass lies at the angle theta from below the axis, so x_c = R_c sin(theta) with R_c its distance
+from the axis: the "torque arm" model of the power draw of tumbling mills (P = T omega). Where
+the surface curves (cascading, higher Fr) the line's angle is only the mean slope and the
+estimate drifts from the balance.
 
-Run:  python examples/drum.py [--quick] [--froude 1e-3 1e-2 1e-1] [--out DIR]
+Run:  python examples/drum.py [--quick] [--froude 1e-1 1e-2 1e-3] [--out DIR]
                               [--figure PNG | --no-figure]
 
 Writes DIR/drum.json (the figures printed at the end), DIR/drum_Fr<i>.npz (a snapshot, the
@@ -270,7 +274,7 @@ def plot(out: str, figure: str) -> None:
 def main(argv=None) -> dict:
     parser = arguments(__doc__.split("\n")[0], "drum")
     parser.add_argument("--quick", action="store_true",
-                        help="a drum of R = 9 d with about 300 beads, two speeds: a test of a few seconds")
+                        help="a drum of R = 8 d with about 150 beads, two speeds: a test of a few seconds")
     parser.add_argument("--froude", type=float, nargs="+", default=None,
                         help="Froude numbers, run in this order (default 1e-1 1e-2 1e-3)")
     parser.add_argument("--duration", type=float, default=None,
@@ -280,9 +284,9 @@ def main(argv=None) -> dict:
     args = parser.parse_args(argv)
     started = time.perf_counter()
     froude = args.froude or ([1e-1, 1e-2] if args.quick else [1e-1, 1e-2, 1e-3])
-    radius = (9.0 if args.quick else RADIUS) * DIAMETER
-    length = (4.0 if args.quick else LENGTH) * DIAMETER
-    duration = args.duration or (0.1 if args.quick else 0.4)
+    radius = (8.0 if args.quick else RADIUS) * DIAMETER
+    length = (3.0 if args.quick else LENGTH) * DIAMETER
+    duration = args.duration or (0.08 if args.quick else 0.4)
     sim, side, caps = build(radius, length, args.seed, args.threads)
     results = []
     for i, fr in enumerate(froude):
@@ -290,7 +294,7 @@ def main(argv=None) -> dict:
         # From rest the drum must first lift the bed to its angle: SPIN_UP_ANGLE of turn.
         spin_up = max(SPIN_UP, SPIN_UP_ANGLE / omega) if i == 0 else SPIN_UP
         if args.quick:
-            spin_up = min(spin_up, 0.25)
+            spin_up = min(spin_up, 0.15)
         results.append(measure(sim, side, caps, fr, radius, spin_up, duration))
     summary = write_outputs(results, args.out, radius, length)
     figure = figure_path(args, "drum")
