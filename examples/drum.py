@@ -3,7 +3,8 @@
 A drum of radius R = 14 d (``tsubu.mesh.cylinder``, 64 flat faces, axis along y, closed by its
 caps) is filled to about 35 % of its volume with about 1,000 glass-like beads (mean diameter
 d = 2 mm, radii uniform within +-10 %, linear contacts, friction 0.5, rolling friction 0.05). Its
-side has the beads' friction; its caps (a second mesh from the same generator: the cap
+side is rough (a pair override: friction 1.0, rolling friction 0.3, as a lining of glued beads;
+with the beads' own friction the bed slips along the flat faces); its caps (a second mesh from the same generator: the cap
 triangles) are frictionless and L = 4 d apart, so that the bed behaves as a slice of a long
 drum. The drum turns by itself: its ``angular_velocity`` about its centre (no Python hook
 per step). It is spun at Froude numbers Fr = omega^2 R / g of 1e-1, 1e-2 and 1e-3 in turn (the
@@ -17,7 +18,10 @@ measurement over a fixed time, in which:
   averaged; also the angle of the bed's principal axis (the cross-section's second moments:
   a circular segment's long axis lies along its chord), a check that needs no surface;
 - the driving torque: minus the component along the axis of ``sim.wall_torques()`` of the
-  drum's side (the caps, frictionless, add none), sampled every 2 ms and averaged.
+  drum's side and caps (the caps, frictionless, add none), sampled every 2 ms and averaged;
+- the bed's rotation rate about its centre of mass (its angular momentum over its moment of
+  inertia, about the axis) over the drum's: 1 when it turns as a solid body, above 1 with a
+  flowing layer at the surface (which moves the same way), below 1 when it slips on the wall.
 
 The torque is compared with the static estimate T = M g R_c sin(theta), derived here from the
 balance of angular momentum about the axis: in a steady state the bed's angular momentum is
@@ -60,6 +64,8 @@ STIFFNESS = 300.0  # N/m: overlaps under a 20-bead bed stay below 1 % of d
 FRICTION = 0.5
 ROLLING_FRICTION = 0.05
 RESTITUTION = 0.5
+LINING_FRICTION = 1.0  # between the beads and the drum's side (a pair override)
+LINING_ROLLING_FRICTION = 0.3
 RADIUS = 14.0  # drum radius R, in diameters
 LENGTH = 4.0  # between the caps, in diameters
 SEGMENTS = 64
@@ -75,18 +81,25 @@ SNAPSHOT = 0.02  # s between surface fits
 def materials():
     grain = tsubu.Material(density=DENSITY, kn=STIFFNESS, restitution=RESTITUTION,
                            friction=FRICTION, rolling_friction=ROLLING_FRICTION, name="grain")
+    lining = tsubu.Material(density=DENSITY, kn=STIFFNESS, restitution=RESTITUTION,
+                            friction=FRICTION, name="drum lining")
     smooth = tsubu.Material(density=DENSITY, kn=STIFFNESS, restitution=RESTITUTION, friction=0.0,
                             name="smooth cap")
-    return grain, smooth
+    return grain, lining, smooth
 
 
 def build(radius: float, length: float, seed: int, threads):
     """The drum (side and caps as two meshes about the same centre, the origin) and the bed,
     settled. Returns (sim, side wall, cap wall)."""
-    grain, smooth = materials()
+    grain, lining, smooth = materials()
     vertices, faces = mesh.cylinder(radius, length, SEGMENTS, axis="y", caps=True)
     sim = tsubu.Simulation(gravity=(0, 0, -GRAVITY), threads=threads)
-    side = sim.add_mesh(vertices, faces[:2 * SEGMENTS], grain, center=(0, 0, 0))
+    # A rough lining (as a layer of beads glued to the wall, or sandpaper, in experiments): a
+    # pair override. With the beads' own friction on the flat faces the bed slips along the
+    # wall (it turned at 0.8 of the drum's rate at Fr = 0.1, and its angle swung by 20 degrees
+    # in stick-slip cycles).
+    sim.set_pair(grain, lining, friction=LINING_FRICTION, rolling_friction=LINING_ROLLING_FRICTION)
+    side = sim.add_mesh(vertices, faces[:2 * SEGMENTS], lining, center=(0, 0, 0))
     caps = sim.add_mesh(vertices, faces[2 * SEGMENTS:], smooth, center=(0, 0, 0))
     inner = radius * math.cos(math.pi / SEGMENTS)  # the flat faces' distance from the axis
     # Beads of a random sequential addition (solid fraction LOOSE) in the lower part of the
@@ -170,7 +183,7 @@ def measure(sim, side: int, caps: int, froude: float, radius: float, spin_up: fl
     masses = sim.masses
     total = float(masses.sum())
     inner = radius * math.cos(math.pi / SEGMENTS)
-    torques, balance, angles, axes, surfaces = [], [], [], [], []
+    torques, balance, angles, axes, surfaces, spin = [], [], [], [], [], []
     t0, next_snapshot = sim.time, sim.time
     while sim.time - t0 < duration - 0.5 * SAMPLE:
         sim.run(time=SAMPLE)
@@ -182,6 +195,13 @@ def measure(sim, side: int, caps: int, froude: float, radius: float, spin_up: fl
         # the drum's torque balances it, so its driving torque is -M g c_x (c_x < 0 when the
         # bed is lifted toward -x).
         balance.append(-total * GRAVITY * cm[0])
+        v = sim.velocities
+        dx = x - cm
+        # The bed's mean rotation rate about the axis through its centre of mass (+y):
+        # L_y / I_y, from the beads' motion relative to the centre of mass.
+        dv = v - np.average(v, axis=0, weights=masses)
+        spin.append(float(np.sum(masses * (dx[:, 2] * dv[:, 0] - dx[:, 0] * dv[:, 2]))
+                          / np.sum(masses * (dx[:, 0] ** 2 + dx[:, 2] ** 2))))
         if sim.time >= next_snapshot - 0.5 * SAMPLE:
             next_snapshot += SNAPSHOT
             r = sim.radii
@@ -199,7 +219,7 @@ def measure(sim, side: int, caps: int, froude: float, radius: float, spin_up: fl
         torque=float(np.mean(torques)), torque_std=float(np.std(torques)),
         torque_balance=float(np.mean(balance)), com_distance=distance,
         torque_estimate=total * GRAVITY * distance * math.sin(math.radians(theta)),
-        last_surface=surfaces[-1], steps=sim.step_count)
+        bed_rotation=float(np.mean(spin)) / omega, last_surface=surfaces[-1], steps=sim.step_count)
     arrays = dict(positions=x, radii=r, speeds=np.linalg.norm(v, axis=1),
                   torques=np.array(torques), balance=np.array(balance), angles=np.array(angles),
                   principal_angles=np.array(axes))

@@ -225,7 +225,10 @@ def test_drum_torque_resists_the_spin(tmp_path):
         # Lifted toward -x (the wall moves up on that side): M g x_c < 0, so the balance > 0.
         assert run["torque_balance"] > 0
         assert abs(run["torque"] / run["torque_balance"] - 1) < 0.25, run
-        assert 15 < run["angle"] < 55 and 15 < run["principal_angle"] < 55, run
+        # A dynamic angle of repose of beads (the quick drum is 16 beads across: noisy), and
+        # the bed turns with the rough lining, not slipping on it.
+        assert 20 < run["angle"] < 55 and 15 < run["principal_angle"] < 60, run
+        assert run["bed_rotation"] > 0.9, run
         data = read_npz(tmp_path / f"drum_Fr{s['runs'].index(run)}.npz")
         rho = np.hypot(data["positions"][:, 0], data["positions"][:, 2])
         assert np.all(rho + data["radii"] < s["radius"] * 1.001)
