@@ -230,8 +230,11 @@ def test_drum_torque_resists_the_spin(tmp_path):
         assert 20 < run["angle"] < 55 and 15 < run["principal_angle"] < 60, run
         assert run["bed_rotation"] > 0.9, run
         data = read_npz(tmp_path / f"drum_Fr{s['runs'].index(run)}.npz")
-        rho = np.hypot(data["positions"][:, 0], data["positions"][:, 2])
-        assert np.all(rho + data["radii"] < s["radius"] * 1.001)
+        # Every bead is in the drum: within its radius R (the flat faces are nearer), less
+        # overlaps under 5 % of d; between the caps.
+        x = data["positions"]
+        assert np.all(np.hypot(x[:, 0], x[:, 2]) + data["radii"] < s["radius"] + 0.05 * module.DIAMETER)
+        assert np.all(np.abs(x[:, 1]) + data["radii"] < 0.5 * s["length"] + 0.05 * module.DIAMETER)
     draw_figure(module, tmp_path)
 
 
