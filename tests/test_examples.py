@@ -152,3 +152,101 @@ def test_oblique_collision_scene_matches_the_script(tmp_path):
     module = load_example("oblique_collision")
     _, f_ref, _ = module.hertz_impact(math.cos(math.radians(30.0)))
     assert abs(peak / f_ref.max() - 1) < 2e-3
+
+
+@pytest.mark.slow
+def test_hopper_discharges_faster_through_a_wider_slot(tmp_path):
+    """The quick hopper (about 400 beads, slots of 4 d and 6 d): beads leave at a steady,
+    positive rate that grows with the slot as Beverloo's slot law allows."""
+    module = load_example("hopper")
+    s = module.main(["--quick", "--no-figure", "--out", str(tmp_path)])
+    narrow, wide = s["runs"]
+    assert (narrow["width_ratio"], wide["width_ratio"]) == (4.0, 6.0)
+    for run in s["runs"]:
+        assert run["flow_rate"] > 0, run
+        # A settled random pack in a slab: between loose random packing and close packing.
+        assert 0.45 < run["solid_fraction"] < 0.64, run
+        data = read_npz(tmp_path / f"hopper_D{run['width_ratio']:g}.npz")
+        m = data["discharged"]
+        assert m[0] == 0 and np.all(np.diff(m) >= 0) and m[-1] <= run["total_mass"]
+        assert m[-1] > 0.2 * run["total_mass"]
+        # The line fits the steady discharge: within 10 % of the mass it covers.
+        t = data["times"]
+        used = (t >= run["fit_range"][0]) & (t <= run["fit_range"][1])
+        residual = m[used] - (run["fit_intercept"] + run["flow_rate"] * t[used])
+        assert np.max(np.abs(residual)) < 0.1 * (m[used].max() - m[used].min()), run
+    # W ~ (D - k d)^(3/2): W(6 d)/W(4 d) is 1.84 for k = 0 and 15.6 for k = 3.
+    assert 1.5 < wide["flow_rate"] / narrow["flow_rate"] < 16, s
+    assert 0 < s["k"] < 3.5 and s["C"] > 0, s
+    draw_figure(module, tmp_path)
+
+
+def test_hopper_beverloo_fit_recovers_the_law():
+    module = load_example("hopper")
+    widths = np.array([4.0, 5.0, 6.0, 7.0]) * module.DIAMETER
+    rates = module.beverloo(widths, 0.7, 1.8, 1500.0, 0.01)
+    c, k = module.fit_beverloo(widths, rates, 1500.0, 0.01)
+    assert math.isclose(c, 0.7, rel_tol=1e-9) and math.isclose(k, 1.8, rel_tol=1e-9)
+
+
+def test_hopper_parks_only_discharged_beads():
+    """The outlet's stand-in moves beads more than PARK_BELOW d below the slot to the parking
+    lot, at rest, and leaves the others alone."""
+    import tsubu
+
+    module = load_example("hopper")
+    grain, _ = module.materials()
+    sim = tsubu.Simulation()
+    d = module.DIAMETER
+    sim.add_spheres([(0, 0, 5 * d), (0, 0, -2 * d), (0, 0, -5 * d)], d / 2, grain,
+                    velocities=[(0, 0, -1)] * 3)
+    lot = module.parking_lot(3, 5 * d)
+    parked = np.zeros(3, dtype=bool)
+    module.park_discharged(sim, parked, lot)
+    assert parked.tolist() == [False, False, True]
+    assert np.array_equal(sim.positions[2], lot[2]) and np.all(sim.velocities[2] == 0)
+    assert np.array_equal(sim.positions[:2], [(0, 0, 5 * d), (0, 0, -2 * d)])
+    assert np.all(sim.velocities[:2] == (0, 0, -1))
+    # The lot's places are apart and below the slot, inside the slab.
+    gaps = np.linalg.norm(lot[:, None] - lot[None], axis=2) + np.eye(3)
+    assert gaps.min() > 1.1 * d and np.all(lot[:, 2] < -module.PARK_BELOW * d)
+
+
+@pytest.mark.slow
+def test_drum_torque_resists_the_spin(tmp_path):
+    """The quick drum (about 150 beads) turning about +y at two speeds: the spheres' torque on
+    it is against the spin (the driving torque is positive), and the drum's torque balances the
+    moment of the bed's weight, lifted on the side the wall rises."""
+    module = load_example("drum")
+    s = module.main(["--quick", "--no-figure", "--out", str(tmp_path)])
+    for run in s["runs"]:
+        assert run["omega"] > 0
+        assert run["torque"] > 0, run
+        # Lifted toward -x (the wall moves up on that side): M g x_c < 0, so the balance > 0.
+        assert run["torque_balance"] > 0
+        assert abs(run["torque"] / run["torque_balance"] - 1) < 0.25, run
+        # A dynamic angle of repose of beads (the quick drum is 16 beads across: noisy), and
+        # the bed turns with the rough lining, not slipping on it.
+        assert 20 < run["angle"] < 55 and 15 < run["principal_angle"] < 60, run
+        assert run["bed_rotation"] > 0.9, run
+        data = read_npz(tmp_path / f"drum_Fr{s['runs'].index(run)}.npz")
+        # Every bead is in the drum: within its radius R (the flat faces are nearer), less
+        # overlaps under 5 % of d; between the caps.
+        x = data["positions"]
+        assert np.all(np.hypot(x[:, 0], x[:, 2]) + data["radii"] < s["radius"] + 0.05 * module.DIAMETER)
+        assert np.all(np.abs(x[:, 1]) + data["radii"] < 0.5 * s["length"] + 0.05 * module.DIAMETER)
+    draw_figure(module, tmp_path)
+
+
+def test_drum_surface_fit_finds_a_tilted_surface():
+    module = load_example("drum")
+    d = module.DIAMETER
+    # A tilted slab of a square lattice whose top rises toward -x at 30 degrees.
+    i, j = np.meshgrid(np.arange(-20, 21), np.arange(-10, 1))
+    x = np.stack([i.ravel() * d / 2, np.zeros(i.size), j.ravel() * d / 2], axis=1)
+    x[:, 2] -= np.tan(np.radians(30)) * x[:, 0]
+    angle, *_ = module.surface_fit(x, np.full(len(x), d / 4), 1.0)
+    assert abs(angle - 30) < 2
+    assert abs(module.principal_angle(x, np.ones(len(x))) - 30) < 5
+    assert math.isclose(module.segment_area(1.0, module.segment_level(1.0, 0.35)), 0.35 * math.pi,
+                        rel_tol=1e-9)
