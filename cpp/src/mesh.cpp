@@ -105,8 +105,8 @@ void Mesh::candidates(const Vec3& X, double ext, std::vector<Index>& out) const 
   for (int d = 0; d < 3; ++d) {
     const double a = (X[d] - ext - lo_[d]) / h_, b = (X[d] + ext - lo_[d]) / h_;
     if (!(b >= 0) || !(a < double(dims_[std::size_t(d)]))) return;  // outside the bins (or NaN)
-    c0[d] = std::max(0L, static_cast<long>(a));
-    c1[d] = std::min(dims_[std::size_t(d)] - 1, static_cast<long>(b));
+    c0[d] = static_cast<long>(std::max(0.0, a));  // (clamped before the cast: no overflow)
+    c1[d] = static_cast<long>(std::min(double(dims_[std::size_t(d)] - 1), b));
   }
   for (long z = c0[2]; z <= c1[2]; ++z)
     for (long y = c0[1]; y <= c1[1]; ++y) {
