@@ -28,6 +28,17 @@ def material():
     return tsubu.Material(density=2500, kn=1e4, restitution=0.5, friction=0.5)
 
 
+def side_walls(sim, side: float, mat) -> None:
+    """Four planes boxing the square [-side/2, side/2]^2 in."""
+    for axis in (0, 1):
+        for sign in (-1, 1):
+            nrm = np.zeros(3)
+            nrm[axis] = -sign
+            p = np.zeros(3)
+            p[axis] = sign * side / 2
+            sim.add_plane(p, nrm, mat)
+
+
 def bed(n: int, threads: int) -> tuple[np.ndarray, np.ndarray, float]:
     """Positions and velocities of n spheres settled on z = 0 in a square box, and its side."""
     side = 2 * RADIUS * 1.05 * np.ceil(np.sqrt(n / 8))  # ~8 layers
@@ -43,13 +54,7 @@ def bed(n: int, threads: int) -> tuple[np.ndarray, np.ndarray, float]:
     pts[:, :2] += rng.uniform(-0.05, 0.05, (n, 2)) * RADIUS
     sim.add_spheres(pts, RADIUS, mat)
     sim.add_plane((0, 0, 0), (0, 0, 1), mat)
-    for axis in (0, 1):
-        for sign in (-1, 1):
-            nrm = np.zeros(3)
-            nrm[axis] = -sign
-            p = np.zeros(3)
-            p[axis] = sign * side / 2
-            sim.add_plane(p, nrm, mat)
+    side_walls(sim, side, mat)
     sim.run(time=0.15)
     return sim.positions.copy(), sim.velocities.copy(), side
 
@@ -63,13 +68,7 @@ def scene(floor: str, divisions: int, pts, vel, side, threads):
     else:
         v, f = tsubu.mesh.square((0, 0, 0), 1.2 * side, (0, 0, 1), divisions)
         sim.add_mesh(v, f, material=mat)
-    for axis in (0, 1):
-        for sign in (-1, 1):
-            nrm = np.zeros(3)
-            nrm[axis] = -sign
-            p = np.zeros(3)
-            p[axis] = sign * side / 2
-            sim.add_plane(p, nrm, mat)
+    side_walls(sim, side, mat)
     return sim
 
 

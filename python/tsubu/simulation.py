@@ -712,6 +712,14 @@ class Simulation:
         self.wall(wall)
         self._core.clear_wall_servo(wall)
 
+    def _wall_index(self, wall) -> int:
+        """``wall`` checked to be the index of an existing wall (TypeError, ValueError)."""
+        wall = _checks.whole("wall", wall)
+        if wall >= self._core.plane_count:
+            raise ValueError(f"wall {wall} does not exist: the simulation has {self._core.plane_count} "
+                             f"walls (wall must be < {self._core.plane_count})")
+        return wall
+
     @property
     def wall_count(self) -> int:
         """Number of walls, planes and meshes (indices 0 to wall_count - 1, removed ones too)."""
@@ -736,10 +744,7 @@ class Simulation:
         ValueError
             For a wall that does not exist.
         """
-        wall = _checks.whole("wall", wall)
-        if wall >= self._core.plane_count:
-            raise ValueError(f"wall {wall} does not exist: the simulation has {self._core.plane_count} "
-                             f"walls (wall must be < {self._core.plane_count})")
+        wall = self._wall_index(wall)
         d = self._core.wall(wall)
         out = {}
         for k, v in d.items():
@@ -830,10 +835,7 @@ class Simulation:
         ValueError
             For a wall that does not exist.
         """
-        wall = _checks.whole("wall", wall)
-        if wall >= self._core.plane_count:
-            raise ValueError(f"wall {wall} does not exist: the simulation has {self._core.plane_count} "
-                             f"walls (wall must be < {self._core.plane_count})")
+        wall = self._wall_index(wall)
         if self._core.wall(wall)["kind"] != "plane":
             raise ValueError(f"wall {wall} is a mesh, not a plane: use wall({wall})")
         d = self._core.plane(wall)
