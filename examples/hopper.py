@@ -27,10 +27,9 @@ density of the settled pack, measured.
 C and k are fitted to the measured points: W^(2/3) is linear in D, slope (C rho_b sqrt(g) L)^(2/3)
 and root D = k d. docs/examples.md discusses what to compare them with.
 
-Discharged beads fall freely below the slot; to keep them from costing steps, every 5 ms those
-more than 4 d below the slot are parked on a lattice far below (positions reset, velocities
-zeroed), where they touch nothing. An outlet (``sim.add_outlet``, issue 27; not yet on main)
-would replace this: see ``park_discharged``.
+Discharged beads fall freely below the slot until an outlet (``sim.add_outlet``), a plane 4 d
+below it, removes them inside the run; the discharged mass counts the beads below the slot and
+those the outlet removed (``sim.removed()``).
 
 Run:  python examples/hopper.py [--quick] [--widths 4 5 6 7] [--out DIR]
                                 [--figure PNG | --no-figure]
@@ -68,12 +67,10 @@ HALF_ANGLE = 30.0  # degrees, plates from the vertical
 HEIGHT = 36.0  # plates' height, in diameters
 FILL_FRACTION = 0.33  # solid fraction of the random sequential addition before settling
 SETTLE_SPEED = 0.02  # m/s: settled when no bead is faster
-CHUNK = 0.005  # s between measurements (and parking)
+CHUNK = 0.005  # s between measurements
 START_UP = 0.05  # s after opening left out of the fit
 REMAINING = 1 / 3  # fit while more than this fraction of the beads is in the hopper
-PARK_BELOW = 4.0  # diameters below the slot: parked from there on
-PARK_SPACING = 1.5  # diameters between parked beads
-PARK_TOP = 15.0  # diameters below the slot: the parking lot's top row
+OUTLET_BELOW = 4.0  # diameters below the slot: the outlet's plane
 
 
 def materials():
@@ -172,59 +169,27 @@ def bulk_density(x, r, geometry) -> float:
     return mass / volume
 
 
-def parking_lot(count: int, length: float) -> np.ndarray:
-    """`count` places on a lattice far below the slot where parked beads touch nothing."""
-    s = PARK_SPACING * DIAMETER
-    ny = max(1, int((length - 2 * DIAMETER) // s) + 1)
-    nx = 40
-    k = np.arange(count)
-    y = (k % ny - 0.5 * (ny - 1)) * s
-    x = ((k // ny) % nx - 0.5 * (nx - 1)) * s
-    z = -PARK_TOP * DIAMETER - (k // (ny * nx)) * s
-    return np.stack([x, y, z], axis=1)
-
-
-def park_discharged(sim, parked: np.ndarray, lot: np.ndarray) -> None:
-    """Stand-in for an outlet. Beads more than PARK_BELOW d below the slot go to the parking
-    lot, and every parked bead is put back on its place at rest (they fall 0.1 mm between two
-    calls and touch nothing there).
-
-    OUTLET: when ``sim.add_outlet`` is on main (branch ``grains``), this function and the lot
-    go: add ``sim.add_outlet(...)`` on the plane z = -PARK_BELOW d (normal -z) in ``discharge``
-    and read the discharged mass from its counts and times instead of the positions."""
-    x = sim.positions
-    parked |= x[:, 2] < -PARK_BELOW * DIAMETER
-    if not parked.any():
-        return
-    x = np.array(x)
-    v, w = np.array(sim.velocities), np.array(sim.angular_velocities)
-    x[parked] = lot[parked]
-    v[parked] = 0.0
-    w[parked] = 0.0
-    sim.positions, sim.velocities, sim.angular_velocities = x, v, w
-
-
 def discharge(sim, gate: int, geometry: dict, duration: float, snapshot_at: float) -> dict:
     """Open the slot and record the discharged mass every CHUNK until `duration` or until the
-    hopper holds less than a fifth of its beads."""
-    masses = sim.masses
-    total = float(masses.sum())
-    lot = parking_lot(sim.size, geometry["length"])
-    parked = np.zeros(sim.size, dtype=bool)
+    hopper holds less than a fifth of its beads: the beads whose centre is below the slot, and
+    those the outlet OUTLET_BELOW d below it has removed."""
+    mass_of = dict(zip(sim.ids.tolist(), sim.masses.tolist()))  # by id: rows go as beads leave
+    total = float(sum(mass_of.values()))
+    before = len(sim.removed()["id"])
+    sim.add_outlet(point=(0.0, 0.0, -OUTLET_BELOW * DIAMETER), normal=(0.0, 0.0, 1.0))
     sim.remove_wall(gate)
     t0 = sim.time
     times, discharged, snapshot = [0.0], [0.0], None
     while sim.time - t0 < duration - 0.5 * CHUNK:
         sim.run(time=CHUNK)
         x = sim.positions
-        # The measurement. OUTLET: an outlet's count and discharged mass replace this line.
-        out = (x[:, 2] < 0) | parked
+        out = x[:, 2] < 0
+        gone = sim.removed()["id"][before:]
         times.append(sim.time - t0)
-        discharged.append(float(masses[out].sum()))
+        discharged.append(float(sim.masses[out].sum()) + sum(mass_of[int(i)] for i in gone))
         if snapshot is None and sim.time - t0 >= snapshot_at:
             snapshot = dict(positions=x, speeds=np.linalg.norm(sim.velocities, axis=1),
                             radii=sim.radii, time=sim.time - t0, out=out)
-        park_discharged(sim, parked, lot)
         if discharged[-1] > 0.8 * total:
             break
     return dict(times=np.array(times), discharged=np.array(discharged), total_mass=total,
@@ -278,6 +243,7 @@ def run_width(ratio: float, pack: tuple, narrowest: float, duration: float, thre
     arrays = dict(times=record["times"], discharged=record["discharged"], settled_positions=x0,
                   radii=r0, snapshot_positions=snap.get("positions", np.zeros((0, 3))),
                   snapshot_speeds=snap.get("speeds", np.zeros(0)),
+                  snapshot_radii=snap.get("radii", np.zeros(0)),
                   snapshot_time=np.array(snap.get("time", math.nan)))
     return summary, arrays
 
@@ -314,8 +280,8 @@ def plot(out: str, figure: str) -> None:
     run = runs[-1]
     data = read_npz(os.path.join(out, f"hopper_D{run['width_ratio']:g}.npz"))
     x, v = data["snapshot_positions"] * 1e3, data["snapshot_speeds"]
-    r = data["radii"] * 1e3
-    keep = x[:, 2] > -8 * DIAMETER * 1e3 if len(x) else np.zeros(0, bool)  # not the parked ones
+    r = data["snapshot_radii"] * 1e3
+    keep = np.ones(len(x), bool)
     order = np.argsort(x[keep][:, 1]) if len(x) else []
     if len(x):
         circles = EllipseCollection(2 * r[keep][order], 2 * r[keep][order], 0.0, units="xy",

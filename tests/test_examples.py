@@ -189,28 +189,24 @@ def test_hopper_beverloo_fit_recovers_the_law():
     assert math.isclose(c, 0.7, rel_tol=1e-9) and math.isclose(k, 1.8, rel_tol=1e-9)
 
 
-def test_hopper_parks_only_discharged_beads():
-    """The outlet's stand-in moves beads more than PARK_BELOW d below the slot to the parking
-    lot, at rest, and leaves the others alone."""
+def test_hopper_counts_the_beads_its_outlet_removes():
+    """The discharged mass is that of the beads below the slot plus those the outlet (a plane
+    OUTLET_BELOW d below the slot) removed: a bead above, one between, one that falls through
+    the outlet's plane during the chunk."""
     import tsubu
 
     module = load_example("hopper")
     grain, _ = module.materials()
-    sim = tsubu.Simulation()
+    sim = tsubu.Simulation(gravity=(0, 0, 0))
     d = module.DIAMETER
-    sim.add_spheres([(0, 0, 5 * d), (0, 0, -2 * d), (0, 0, -5 * d)], d / 2, grain,
-                    velocities=[(0, 0, -1)] * 3)
-    lot = module.parking_lot(3, 5 * d)
-    parked = np.zeros(3, dtype=bool)
-    module.park_discharged(sim, parked, lot)
-    assert parked.tolist() == [False, False, True]
-    assert np.array_equal(sim.positions[2], lot[2]) and np.all(sim.velocities[2] == 0)
-    assert np.array_equal(sim.positions[:2], [(0, 0, 5 * d), (0, 0, -2 * d)])
-    assert np.all(sim.velocities[:2] == (0, 0, -1))
-    # The lot's places are apart and below the slot, inside the slab.
-    gaps = np.linalg.norm(lot[:, None] - lot[None], axis=2) + np.eye(3)
-    assert gaps.min() > 1.1 * d and np.all(lot[:, 2] < -module.PARK_BELOW * d)
-
+    below = module.OUTLET_BELOW * d
+    sim.add_spheres([(0, 0, 5 * d), (2 * d, 0, -2 * d), (4 * d, 0, -below + 0.1 * d)], d / 2, grain,
+                    velocities=[(0, 0, 0), (0, 0, 0), (0, 0, -1)])
+    gate = sim.add_plane(point=(0, 0, 20 * d), normal=(0, 0, -1), material=grain)
+    result = module.discharge(sim, gate, {}, duration=module.CHUNK, snapshot_at=1.0)
+    m = module.bead_mass() if hasattr(module, "bead_mass") else result["total_mass"] / 3
+    assert sim.size == 2 and sim.removed()["id"].tolist() == [2]
+    assert result["discharged"][-1] == pytest.approx(2 * m, rel=1e-12)
 
 @pytest.mark.slow
 def test_drum_torque_resists_the_spin(tmp_path):
