@@ -803,10 +803,8 @@ class Simulation:
             For a wall that does not exist, non-finite vectors, or a velocity faster than
             light.
         """
-        state = self.plane(wall)
-        v = state["velocity"] if velocity is None else _wall_velocity("velocity", velocity)
-        w = state["angular_velocity"] if angular_velocity is None else _checks.vec3("angular_velocity", angular_velocity)
-        self._core.set_plane_motion(wall, v, w)
+        self.plane(wall)  # (a plane's: a mesh is refused, naming wall())
+        self.set_wall_motion(wall, velocity=velocity, angular_velocity=angular_velocity)
 
     @property
     def plane_count(self) -> int:
