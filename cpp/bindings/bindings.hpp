@@ -64,5 +64,6 @@ void register_options(py::module_& m);
 void register_simulation(py::class_<tsubu::Simulation>& cls);
 void register_state(py::class_<tsubu::Simulation>& cls);
 void register_boundaries(py::class_<tsubu::Simulation>& cls);
+void register_periodic(py::class_<tsubu::Simulation>& cls);
 
 }  // namespace tsubu_py

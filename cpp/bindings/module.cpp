@@ -37,6 +37,7 @@ PYBIND11_MODULE(_core, m) {
   register_simulation(sim);
   register_state(sim);
   register_boundaries(sim);
+  register_periodic(sim);
   register_options(m);  // after Simulation: validate_options takes one
   // The accepted names of every string-valued argument, for the Python checks (those the
   // registrations above bound).

@@ -54,8 +54,15 @@ void Simulation::remove_now(std::size_t count, const Id* ids, const int* outlet)
     }
     fixed_ = std::move(kept);
   }
+  energy_ref_valid_ = false;
+  if (running() && lists_.valid && lists_.built(particles_.size()) && !domain_.periodic()) {
+    // An outlet, during a run: the lists lose the spheres' rows and entries in place (a
+    // rebuild, or a round trip through ids as a checkpoint takes, costs some twenty steps).
+    lists_.remove(list_context(), ids, count);
+    return;
+  }
   // The contacts that stay are carried by ids, as a checkpoint carries them (the lists refer to
-  // internal indices, which the removal changes).
+  // internal indices, which the removal changes; and between runs the law may change).
   const bool carry = law_ != nullptr && lists_.built(particles_.size());
   ContactState pairs, walls;
   if (carry) {
@@ -79,12 +86,12 @@ void Simulation::remove_now(std::size_t count, const Id* ids, const int* outlet)
     drop(pairs, false);
     drop(walls, true);
   }
+  domain_.clear_ghosts();  // (the rows go with the removal; a rebuild makes them again)
   particles_.remove(ids, count);
   const long rebuilds = lists_.rebuilds, refreshes = lists_.refreshes;
   lists_ = NeighborList();  // nothing to carry over from lists of the old indices
   lists_.rebuilds = rebuilds;
   lists_.refreshes = refreshes;
-  energy_ref_valid_ = false;
   run_.last_move = 0;
   if (carry) set_contact_state(pairs, walls);
 }
@@ -93,15 +100,17 @@ void Simulation::remove_outgoing() {
   const ParticleStore& ps = particles_.arrays();
   std::vector<Id> out;
   std::vector<int> by;
-  particles_.for_each_id([&](Id id, Index i) {
-    const double* x = ps.x.data() + 3 * static_cast<std::size_t>(i);
-    for (std::size_t o = 0; o < outlets_.size(); ++o)
-      if (outlets_[o].removes(x)) {
-        out.push_back(id);
+  // Rows in memory order (the removal does not depend on the order found).
+  const std::size_t n = particles_.size();
+  for (std::size_t o = 0; o < outlets_.size(); ++o) {
+    const Outlet& outlet = outlets_[o];
+    for (std::size_t i = 0; i < n; ++i)
+      if (outlet.removes(ps.x.data() + 3 * i) &&
+          std::find(out.begin(), out.end(), ps.id[i]) == out.end()) {  // (the first outlet names it)
+        out.push_back(ps.id[i]);
         by.push_back(static_cast<int>(o));
-        break;
       }
-  });
+  }
   if (out.empty()) return;
   remove_now(out.size(), out.data(), by.data());  // (rebuilds the lists, with their terms)
   contacts_.size(lists_.near_partner.size(), lists_.wall_index.size());

@@ -17,12 +17,18 @@ NeighborList::CellGrid NeighborList::plan_grid(const Context& c, double skin) co
   if (n == 0) return g;
   const ParticleStore& p = c.particles.arrays();
   c.domain.grid_extent(p.x.data(), n, g.lo, g.hi);
-  const double rmax = *std::max_element(p.radius.begin(), p.radius.end());
+  const double rmax = *std::max_element(p.radius.begin(), p.radius.begin() + n);
   g.h = 2.0 * rmax + skin;  // cells no smaller than the largest cutoff
+  // A periodic box: the box and its ghosts' layer, one cutoff deep, on a dense grid.
+  for (int d = 0; d < 3; ++d)
+    if (c.domain.periodic(d)) {
+      g.lo[d] = c.domain.lower()[d] - g.h;
+      g.hi[d] = c.domain.upper()[d] + g.h;
+    }
   const double max_cells = 2.0 * static_cast<double>(n) + 1000.0;
   double total = 1;
   for (int d = 0; d < 3; ++d) total *= std::floor((g.hi[d] - g.lo[d]) / g.h) + 1;
-  if (total <= max_cells) {  // (false for an extent that overflows, too)
+  if (total <= max_cells || c.domain.periodic()) {  // (false for an extent that overflows, too)
     for (int d = 0; d < 3; ++d) g.dims[d] = static_cast<long>(std::floor((g.hi[d] - g.lo[d]) / g.h)) + 1;
     return g;
   }

@@ -49,17 +49,20 @@ void Simulation::check_overlaps(bool all) const {
   for (Index i = 0; i < static_cast<Index>(particles_.size()); ++i) {
     for (Index e = lists_.pair_offset[i]; e < lists_.pair_offset[i + 1]; ++e) {
       const Index j = lists_.pair_partner[e];
-      if (!all && slot[i] < 0 && slot[j] < 0) continue;
+      // A ghost partner stands for its source, at its image's place.
+      const Index sj = domain_.source(j, particles_.size());
+      const Vec3 image = Vec3(x(j)) - Vec3(x(sj));
+      if (!all && slot[i] < 0 && slot[sj] < 0) continue;
       const double rmin = std::min(a.radius[i], a.radius[j]);
       const double ov = a.radius[i] + a.radius[j] - domain_.displacement(x(i), x(j)).norm();
       if (!(ov > tol * rmin)) continue;
-      if (!all && !added(i) && !added(j) &&
-          ov <= a.radius[i] + a.radius[j] - domain_.displacement(before(i), before(j)).norm() + kDeeper * rmin)
+      if (!all && !added(i) && !added(sj) &&
+          ov <= a.radius[i] + a.radius[j] - domain_.displacement(before(i), Vec3(before(sj) + image)).norm() + kDeeper * rmin)
         continue;  // it overlapped as much before
       throw InvalidArgument("initial overlap: spheres " + std::to_string(a.id[i]) + " and " +
                             std::to_string(a.id[j]) + " overlap by " + fmt(ov) + " m (" + fmt(ov / rmin) +
                             " of the smaller radius; tolerance " + fmt(tol) + ")" +
-                            (all ? "" : what_changed(i, j)));
+                            (all ? "" : what_changed(i, sj)));
     }
     for (Index e = lists_.wall_offset[i]; e < lists_.wall_offset[i + 1]; ++e) {
       const int w = lists_.wall_index[e];

@@ -154,7 +154,7 @@ Energy Simulation::sphere_energy() const {
     const double half_i = ps.inv_inertia[k] != 0 ? 0.5 / ps.inv_inertia[k]
                                                  : 0.5 * (0.4 * m * ps.radius[k] * ps.radius[k]);
     e.rotational += half_i * vec3(ps.w.data(), k).squaredNorm();
-    e.gravitational -= m * opt_.gravity.dot(domain_.unwrapped(vec3(ps.x.data(), k), k));
+    e.gravitational -= m * opt_.gravity.dot(domain_.unwrapped(vec3(ps.x.data(), k), ps, k));
     e.dissipated += ps.dissipated[k];
   });
   return e;

@@ -24,16 +24,20 @@ void insertion_sort(Index* first, Index* last, Key key) {
 }  // namespace
 
 void NeighborList::rebuild(const Context& c, double skin_now, bool keep_history) {
-  const std::size_t n = c.particles.size();
-
   // 1. Cells: the bounding box of the particles, cells no smaller than the largest cutoff. The
   //    particles are binned and the list's size checked before anything changes, so that a
-  //    list that cannot fit is refused with the state as it was.
-  const CellGrid grid = plan_grid(c, skin_now);
-  if (n > 0) {
-    bin_by_cell(c, grid);
-    check_fits(c, grid, skin_now);
-  }
+  //    list that cannot fit is refused with the state as it was. (A periodic box first wraps
+  //    its spheres, after the stash: only then are their cells known.)
+  const bool periodic = c.domain.periodic();
+  CellGrid grid;
+  auto bin = [&] {
+    grid = plan_grid(c, skin_now);
+    if (c.particles.size() > 0) {
+      bin_by_cell(c, grid);
+      check_fits(c, grid, skin_now);
+    }
+  };
+  if (!periodic) bin();
   skin = skin_now;
 
   // 2. Set the old near and wall lists aside, in terms of ids, with their state; then put the
@@ -51,7 +55,15 @@ void NeighborList::rebuild(const Context& c, double skin_now, bool keep_history)
     const auto now = cs.walls.carried();
     for (std::size_t k = 0; k < ContactStore::kFields; ++k) cs.stash_walls[k].swap(*now[k]);
   }
-  if (n > 0) c.particles.permute(perm_, scratch_);
+  if (periodic) {
+    c.particles.drop_ghosts();
+    c.domain.clear_ghosts();
+    c.domain.wrap(c.particles.arrays(), c.particles.size());
+    bin();
+  }
+  if (c.particles.size() > 0) c.particles.permute(perm_, scratch_);
+  if (periodic) make_ghosts(c, grid);
+  else ghost_cell_start_.clear();
 
   // 3. Verlet half list, each pair owned by its lower id.
   build_verlet(c, grid, skin_now);
@@ -69,6 +81,22 @@ void NeighborList::rebuild(const Context& c, double skin_now, bool keep_history)
   ++rebuilds;
 }
 
+void NeighborList::make_ghosts(const Context& c, const CellGrid& g) {
+  const std::size_t n = c.particles.size();
+  const long ncell = g.dims[0] * g.dims[1] * g.dims[2];
+  auto cell = [&](const Vec3& y) {
+    long k[3];
+    for (int d = 0; d < 3; ++d) k[d] = std::clamp(static_cast<long>((y[d] - g.lo[d]) / g.h), 0L, g.dims[d] - 1);
+    return static_cast<std::uint64_t>((k[2] * g.dims[1] + k[1]) * g.dims[0] + k[0]);
+  };
+  c.domain.make_ghosts(c.particles.arrays(), n, g.h, cell);
+  c.particles.set_ghosts(c.domain.ghosts());
+  const double* x = c.particles.arrays().x.data();
+  ghost_cell_start_.assign(ncell + 1, 0);
+  for (std::size_t q = 0; q < c.domain.ghosts(); ++q) ++ghost_cell_start_[cell(vec3(x, n + q)) + 1];
+  for (long k = 0; k < ncell; ++k) ghost_cell_start_[k + 1] += ghost_cell_start_[k];
+}
+
 void NeighborList::build_verlet(const Context& c, const CellGrid& grid, double skin_now) {
   // Count, prefix sum, fill, sort.
   const std::size_t n = c.particles.size();
@@ -80,14 +108,20 @@ void NeighborList::build_verlet(const Context& c, const CellGrid& grid, double s
   const Vec3& lo_cell = grid.lo;
   const double h = grid.h;
   const std::array<long, 3>& dims = grid.dims;
+  const Index halo = static_cast<Index>(n);  // the first ghost row
+  const Index* ghost_start = ghost_cell_start_.empty() ? nullptr : ghost_cell_start_.data();
   auto for_each_neighbor = [&](Index i, auto&& visit) {
     const Vec3 xi = vec3(x, i);
-    auto visit_cell = [&](long cell) {
-      for (Index j = cell_start_[cell]; j < cell_start_[cell + 1]; ++j) {
-        if (id[j] <= id[i]) continue;
+    auto visit_range = [&](Index j0, Index j1) {
+      for (Index j = j0; j < j1; ++j) {
+        if (id[j] <= id[i]) continue;  // (a ghost has its source's id: each pair once)
         const double cut = r[i] + r[j] + skin_now;
         if (c.domain.displacement(xi, vec3(x, j)).squaredNorm() < cut * cut) visit(j);
       }
+    };
+    auto visit_cell = [&](long cell) {
+      visit_range(cell_start_[cell], cell_start_[cell + 1]);
+      if (ghost_start) visit_range(halo + ghost_start[cell], halo + ghost_start[cell + 1]);
     };
     if (grid.sparse) {
       for_each_cell_around(grid, cell_of(grid, &x[3 * i]), visit_cell);
@@ -176,6 +210,90 @@ void NeighborList::build_walls(const Context& c, double skin_now, bool transfer,
     }
   }
   for (std::size_t e = 0; e < cs.walls.overlap.size(); ++e) cs.walls.touch[e] = touching(c.law, cs.walls.overlap[e]);
+}
+
+namespace {
+
+// Moves entry e of `a` (a.size() / to.size() values each) to entry to[e] <= e, dropping those
+// with to[e] < 0, and trims `a` to `kept` entries.
+template <class C>
+void compact(C& a, const Array<Index>& to, std::size_t kept) {
+  if (a.empty() || to.empty()) return;
+  const std::size_t wd = a.size() / to.size();
+  for (std::size_t e = 0; e < to.size(); ++e)
+    if (to[e] >= 0 && static_cast<std::size_t>(to[e]) != e)
+      std::copy_n(a.data() + wd * e, wd, a.data() + wd * static_cast<std::size_t>(to[e]));
+  a.resize(wd * kept);
+}
+
+// Rows `offset` (over the old rows) without the rows row_to[k] < 0 and the entries to[e] < 0;
+// `value` (may be null) holds an index per entry, mapped through `map` (its entries' new
+// indices are to[e]). Returns the entries kept.
+std::size_t drop_rows(Array<Index>& offset, const Array<Index>& row_to, Array<Index>& to,
+                      const Array<Index>* value, const Array<Index>* map) {
+  const std::size_t rows = row_to.size();
+  to.resize(offset.empty() ? 0 : static_cast<std::size_t>(offset[rows]));
+  Index kept = 0, row = 0;
+  for (std::size_t k = 0; k < rows; ++k) {
+    const Index begin = offset[k], end = offset[k + 1];
+    if (row_to[k] >= 0) offset[row++] = kept;  // (row <= k: the old offsets ahead stay)
+    for (Index e = begin; e < end; ++e)
+      to[e] = (row_to[k] >= 0 && (value == nullptr || (*map)[(*value)[e]] >= 0)) ? kept++ : -1;
+  }
+  offset[row] = kept;
+  offset.resize(static_cast<std::size_t>(row) + 1);
+  return static_cast<std::size_t>(kept);
+}
+
+// Maps an index array's values through `map` after compacting it by `to`.
+void remap(Array<Index>& a, const Array<Index>& to, std::size_t kept, const Array<Index>& map) {
+  compact(a, to, kept);
+  for (Index& v : a) v = map[v];
+}
+
+}  // namespace
+
+void NeighborList::remove(const Context& c, const Id* gone, std::size_t count) {
+  if (count == 0) return;
+  Particles& particles = c.particles;
+  const std::size_t old_n = particles.size();
+  // Each old row's new row: the particles are compacted in order.
+  Array<Index>& row_to = old_index_of_;
+  row_to.assign(old_n, 0);
+  for (std::size_t k = 0; k < count; ++k) row_to[static_cast<std::size_t>(particles.index(gone[k]))] = -1;
+  Index next = 0;
+  for (Index& r : row_to) r = r < 0 ? -1 : next++;
+  particles.remove(gone, count);
+  if (!built(old_n)) return;
+
+  // The Verlet list: partners through row_to.
+  Array<Index>& pair_to = scratch_int_;
+  const std::size_t pairs_kept = drop_rows(pair_offset, row_to, pair_to, &pair_partner, &row_to);
+  remap(pair_partner, pair_to, pairs_kept, row_to);
+
+  // The near list and its state; the reverse index, rows by partner, through the entries' map.
+  const std::size_t near_kept = drop_rows(near_offset, row_to, pair_to_, &near_partner, &row_to);
+  remap(near_owner, pair_to_, near_kept, row_to);
+  remap(near_partner, pair_to_, near_kept, row_to);
+  compact(near_cut2, pair_to_, near_kept);
+  compact(near_entry, pair_to_, near_kept);
+  for (Array<double>* a : c.contacts.pairs.carried()) compact(*a, pair_to_, near_kept);
+  compact(c.contacts.pairs.touch, pair_to_, near_kept);
+  const std::size_t rev_kept = drop_rows(near_rev_offset, row_to, pair_to, &near_rev, &pair_to_);
+  remap(near_rev, pair_to, rev_kept, pair_to_);
+
+  // The near-wall list, its state, and the subset the step reads.
+  const std::size_t walls_kept = drop_rows(wall_offset, row_to, wall_to_, nullptr, nullptr);
+  compact(wall_index, wall_to_, walls_kept);
+  compact(wall_element, wall_to_, walls_kept);
+  remap(wall_owner, wall_to_, walls_kept, row_to);
+  compact(wall_tangent, wall_to_, walls_kept);
+  for (Array<double>* a : c.contacts.walls.carried()) compact(*a, wall_to_, walls_kept);
+  compact(c.contacts.walls.touch, wall_to_, walls_kept);
+  const std::size_t subset_kept = drop_rows(wall_near_offset, row_to, pair_to, &wall_near, &wall_to_);
+  remap(wall_near, pair_to, subset_kept, wall_to_);
+
+  index_entries(c);
 }
 
 void NeighborList::refresh(const Context& c) {
@@ -273,14 +391,15 @@ void NeighborList::refresh_near(const Context& c, bool transfer, bool reordered)
   for (std::size_t q = 0; q < cs.pairs.overlap.size(); ++q) cs.pairs.touch[q] = touching(c.law, cs.pairs.overlap[q]);
 
   // 3. Reverse index: for each particle, the entries where it is the partner, by owner id.
+  //    (A ghost partner's entries are its source's.)
   near_rev_offset.assign(n + 1, 0);
-  for (std::size_t q = 0; q < m; ++q) ++near_rev_offset[near_partner[q] + 1];
+  for (std::size_t q = 0; q < m; ++q) ++near_rev_offset[c.domain.source(near_partner[q], n) + 1];
   for (std::size_t i = 0; i < n; ++i) near_rev_offset[i + 1] += near_rev_offset[i];
   fit(near_rev, m);
   {
     Array<Index>& fill = scratch_int_;
     fill.assign(near_rev_offset.begin(), near_rev_offset.end() - 1);
-    for (std::size_t q = 0; q < m; ++q) near_rev[fill[near_partner[q]]++] = static_cast<Index>(q);
+    for (std::size_t q = 0; q < m; ++q) near_rev[fill[c.domain.source(near_partner[q], n)]++] = static_cast<Index>(q);
   }
 #pragma omp parallel for schedule(static) num_threads(c.threads) if (c.parallel)
   for (long i = 0; i < ni; ++i)
@@ -300,7 +419,15 @@ void NeighborList::refresh_near(const Context& c, bool transfer, bool reordered)
     }
     wall_near_offset[i + 1] = static_cast<Index>(wall_near.size());
   }
-  loaded.assign(n, 0);
+  index_entries(c);
+  cache_terms(c);
+  moved_near = 0;
+  ++refreshes;
+}
+
+void NeighborList::index_entries(const Context& c) {
+  const std::size_t n = c.particles.size();
+  loaded.assign(n + c.domain.ghosts(), 0);  // (a ghost's mark goes to its source: Domain::fold)
   busy.clear();
   for (std::size_t i = 0; i < n; ++i)
     if (wall_near_offset[i + 1] > wall_near_offset[i] || near_offset[i + 1] > near_offset[i] ||
@@ -309,9 +436,6 @@ void NeighborList::refresh_near(const Context& c, bool transfer, bool reordered)
   build_sum_entries(c);
   measure();
   fit(active, wall_near.size());  // the walls in contact (engine/contact_pass.hpp)
-  cache_terms(c);
-  moved_near = 0;
-  ++refreshes;
 }
 
 void NeighborList::build_sum_entries(const Context& c) {

@@ -13,6 +13,7 @@ namespace tsubu {
 Id Particles::add(std::size_t n, const double* positions, const double* radii, const int* materials,
                   const double* velocities, const double* angular_velocities,
                   const std::vector<Material>& table) {
+  drop_ghosts();
   const Id first = static_cast<Id>(index_of_.size());
   const std::size_t ids = index_of_.size() + n;
   s_.grow(n_ + n);
@@ -32,6 +33,8 @@ Id Particles::add(std::size_t n, const double* positions, const double* radii, c
     s_.inv_inertia.push_back(1.0 / (0.4 * m * r * r));  // I = 2/5 m r^2 (1.3)
     s_.dissipated.push_back(0.0);
     s_.material.push_back(materials[k]);
+    for (int c = 0; c < 3; ++c) s_.image.push_back(0);
+    s_.slid.push_back(0.0);
     if (!dense()) rank_of_.push_back(static_cast<Index>(n_));  // the largest id: the last row
     s_.id.push_back(static_cast<Id>(index_of_.size()));
     index_of_.push_back(static_cast<Index>(n_));
@@ -80,6 +83,7 @@ void Particles::remove(const Id* ids, std::size_t count) {
   s_.permute(keep, scratch);  // moves row keep[k] to row k (k < kept): a stable compaction
   n_ = keep.size();
   s_.for_each_field([&](auto& a, int width) { a.resize(width * n_); });
+  g_ = 0;
   for (std::size_t k = 0; k < n_; ++k) index_of_[s_.id[k]] = static_cast<Index>(k);
   rank_ids();
 }

@@ -131,6 +131,7 @@ Id Simulation::add_spheres(std::size_t n, const double* positions, const double*
         return "angular velocity of sphere " + std::to_string(k) + " is not finite";
       });
   }
+  domain_.clear_ghosts();  // (Particles::add drops their rows; the next rebuild makes them)
   const Id first = particles_.add(n, positions, radii, materials, velocities, angular_velocities, materials_);
   if (ran_ && check_overlaps)  // (the first run checks every sphere)
     for (std::size_t k = 0; k < n; ++k) mark_unchecked(particles_.index(first + static_cast<Id>(k)), true);
@@ -325,7 +326,10 @@ void Simulation::prepare_run() {
     });
   }
   check_wall_speeds();
+  check_box();
   if (!lists_.valid) lists_.rebuild(list_context(), skin(), true);
+  // (velocities may have been set since: the ghosts follow)
+  domain_.update_ghosts(particles_.arrays(), particles_.size());
   contacts_.size(lists_.near_partner.size(), lists_.wall_index.size());
   max_move_ = max_move();
   lists_.cache_terms(list_context());  // the pair table may have changed since the last run

@@ -19,7 +19,7 @@ The public names are listed in ``tsubu.__all__``: :class:`Simulation`, :class:`M
 
 from . import _core
 from .material import Material
-from .simulation import InstabilityError, PerformanceWarning, Simulation
+from .simulation import Box, InstabilityError, PerformanceWarning, Simulation
 from . import fill, mesh, output
 from .insert import Inserter
 from .mesh import read_mesh
@@ -30,5 +30,5 @@ __version__ = "0.1.0"
 #: single-threaded, and the ``threads`` option changes nothing.
 openmp = bool(_core.openmp)
 
-__all__ = ["Material", "Simulation", "InstabilityError", "PerformanceWarning", "fill", "Inserter",
+__all__ = ["Material", "Simulation", "Box", "InstabilityError", "PerformanceWarning", "fill", "Inserter",
            "mesh", "read_mesh", "output", "openmp", "__version__"]

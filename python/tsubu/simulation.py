@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import functools
 import json
 import math
@@ -118,6 +119,59 @@ _COPY_REFUSED = (
     "a Simulation cannot be copied or pickled while it runs: a copy goes through its checkpoint "
     "(save/load), which is taken between runs or from a run hook; copy it after run returns "
     "(request_stop() ends the run), or save() it from a run hook and load() the file")
+
+
+def _axis(name: str, value) -> int:
+    """An axis letter as its index."""
+    if not isinstance(value, str) or value not in ("x", "y", "z"):
+        raise ValueError(f"{name} must be one of 'x', 'y', 'z', got {value!r}")
+    return "xyz".index(value)
+
+
+def _axes(name: str, value) -> list[int]:
+    """A string of distinct axis letters as their indices."""
+    if not isinstance(value, str):
+        raise TypeError(f"{name} must be a string of axes such as 'xyz' or 'xy', got {value!r}")
+    if any(a not in "xyz" for a in value) or len(set(value)) != len(value):
+        raise ValueError(f"{name} must list distinct axes among 'x', 'y', 'z', got {value!r}")
+    return sorted("xyz".index(a) for a in value)
+
+
+@dataclasses.dataclass(frozen=True)
+class Box:
+    """A periodic box (:meth:`Simulation.set_box`), as :attr:`Simulation.box` reports it.
+
+    Attributes
+    ----------
+    lower, upper : numpy.ndarray, shape (3,)
+        The corners [m].
+    periodic : str
+        The periodic axes, e.g. ``"xyz"``.
+    shear_rate : float
+        The Lees-Edwards rate [1/s] (0 without shear).
+    shear_offset : float
+        How far the images across the gradient faces have slid along the flow [m].
+    flow, gradient : str or None
+        The shear's axes (None without shear).
+    """
+
+    lower: np.ndarray
+    upper: np.ndarray
+    periodic: str
+    shear_rate: float = 0.0
+    shear_offset: float = 0.0
+    flow: str | None = None
+    gradient: str | None = None
+
+    @property
+    def lengths(self) -> np.ndarray:
+        """upper - lower [m]."""
+        return self.upper - self.lower
+
+    @property
+    def volume(self) -> float:
+        """The box's volume [m^3]."""
+        return float(np.prod(self.upper - self.lower))
 
 
 def _declared_options(cls):
@@ -839,6 +893,96 @@ class Simulation:
         d = self._core.plane(wall)
         return {k: (_read_only(np.array(v)) if k != "material" else self._materials_by_index(v))
                 for k, v in d.items()}
+
+    # ---- a periodic box and Lees-Edwards shear (docs/periodic.md) ----------------------------
+
+    def set_box(self, lower, upper, periodic: str = "xyz") -> None:
+        """Make the scene periodic along some axes: a sphere leaving the box through a face
+        comes back through the opposite one, and spheres near a face touch the images of those
+        near the other (contacts keep their history across the faces). Spheres outside the box
+        are wrapped into it when the next run starts; their images are counted
+        (:attr:`images`, :attr:`unwrapped_positions`).
+
+        Parameters
+        ----------
+        lower, upper : array_like, shape (3,)
+            The box's corners [m]. Along the periodic axes they are the cell's faces (each
+            length at least twice the neighbour reach, 2 (2 r_max + skin), checked when a run
+            starts); along the others they set only the volume :meth:`stress` divides by.
+        periodic : str
+            The periodic axes, a combination of ``"x"``, ``"y"``, ``"z"`` (default ``"xyz"``);
+            ``""`` makes the scene open again. Walls and meshes still bound the other axes.
+
+        Raises
+        ------
+        TypeError
+            For corners that are not numbers or axes that are not a string.
+        ValueError
+            For non-finite corners, ``upper <= lower`` along a periodic axis, or unknown axes.
+        """
+        lo = _checks.vec3("lower", lower)
+        hi = _checks.vec3("upper", upper)
+        axes = _axes("periodic", periodic)
+        for d in axes:
+            if not hi[d] > lo[d]:
+                raise ValueError(f"upper must exceed lower along the periodic axis {'xyz'[d]}: "
+                                 f"got lower={lo[d]!r}, upper={hi[d]!r}")
+        self._core.set_box(lo, hi, [d in axes for d in range(3)])
+
+    def set_shear(self, rate: float, flow: str = "x", gradient: str = "z") -> None:
+        """Lees-Edwards simple shear: the images across the ``gradient`` faces slide along
+        ``flow`` at ``rate`` x L_gradient (their offset grows by that speed) and move that much
+        faster, so that the mean flow u = rate (x_gradient - centre) along ``flow`` develops
+        without walls. The rate may change between runs; 0 stops the slide where it is.
+
+        Parameters
+        ----------
+        rate : float
+            Shear rate [1/s] (any sign).
+        flow, gradient : str
+            Two different axes, ``"x"``, ``"y"`` or ``"z"``, both periodic (:meth:`set_box`).
+
+        Raises
+        ------
+        ValueError
+            For a non-finite rate, equal or unknown axes, or axes that are not periodic.
+        """
+        r = _checks.bounded("rate", rate, None, None, lo_open=False, hi_open=False)
+        f = _axis("flow", flow)
+        g = _axis("gradient", gradient)
+        if f == g:
+            raise ValueError(f"flow and gradient must be different axes, got {flow!r} for both")
+        box = self.box
+        if box is None or "xyz"[f] not in box.periodic or "xyz"[g] not in box.periodic:
+            raise ValueError(f"set_shear: the box must be periodic along the flow ({flow!r}) and the "
+                             f"gradient ({gradient!r}) axes; call set_box first")
+        self._core.set_shear(r, f, g)
+
+    @property
+    def box(self) -> "Box | None":
+        """The periodic box (:class:`tsubu.Box`), or None for an open scene."""
+        b = self._core.box()
+        axes = "".join(a for a, p in zip("xyz", b["periodic"]) if p)
+        if not axes:
+            return None
+        return Box(lower=np.array(b["lower"]), upper=np.array(b["upper"]), periodic=axes,
+                   shear_rate=b["shear_rate"] if b["sheared"] else 0.0,
+                   shear_offset=b["shear_offset"] if b["sheared"] else 0.0,
+                   flow="xyz"[b["flow"]] if b["sheared"] else None,
+                   gradient="xyz"[b["gradient"]] if b["sheared"] else None)
+
+    @property
+    def images(self) -> np.ndarray:
+        """Images crossed by each sphere along x, y, z since it was added (int64, shape (N, 3)),
+        +1 each time it left through the upper face; zero in an open scene."""
+        return _read_only(self._core.images())
+
+    @property
+    def unwrapped_positions(self) -> np.ndarray:
+        """Positions as if no sphere had been wrapped [m], shape (N, 3), ``positions + images *
+        L`` plus, across Lees-Edwards faces, the slides taken; their differences over time are
+        the spheres' displacements (diffusion)."""
+        return _read_only(self._core.unwrapped_positions())
 
     def _materials_by_index(self, index: int) -> Material:
         for m in self._materials:

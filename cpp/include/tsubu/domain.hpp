@@ -1,39 +1,107 @@
-// The domain the particles live in. Every difference of two particles' positions goes through
-// Domain::displacement, every position update through Domain::wrap, the cell grid takes its
-// extent from Domain::grid_extent and the gravitational energy its positions from
-// Domain::unwrapped, so that a periodic box (minimum image, wrapped positions with integer image
-// counters, a Lees-Edwards offset, a grid over the box) replaces this one type, and an MPI
-// sub-domain later extends it (docs/architecture.md, "Add a boundary").
+// The domain the particles live in: open space, or a box periodic along some axes, with
+// Lees–Edwards sliding images along one of them (docs/periodic.md).
+//
+// Periodic images are ghosts: rows after the N owned spheres in the particle arrays, each a copy
+// of an owned sphere (its source) with the source's id, shifted by a box vector, and across a
+// Lees–Edwards boundary offset along the flow by the images' slide and moving faster by
+// rate x L_gradient. The neighbour list pairs owned spheres with ghosts as with any sphere, so
+// that x_i - x_j of every entry is already the minimum image and v_i - v_j the relative velocity
+// across the moving boundary: nothing in the force loop knows about the box, and an MPI rank's
+// halo is the same rows. Ghosts are made at every rebuild (after the owned spheres are wrapped
+// into the box, counting their images) and moved with their sources after every step.
 #pragma once
+#include <array>
+#include <cmath>
 #include <cstddef>
+#include <cstdint>
 #include <limits>
 
 #include "contact/geometry.hpp"
+#include "memory.hpp"
+#include "state.hpp"
 #include "types.hpp"
 
 namespace tsubu {
 
-// Open space: nothing bounds or wraps the particles.
-struct Domain {
-  static constexpr bool periodic = false;
-
-  // x_i - x_j, from j to i (positions as any Eigen expression: Maps into the particle arrays
-  // most often, read without a copy).
+class Domain {
+ public:
+  // x_i - x_j, from j to i (a ghost partner holds its image's position: no minimum image here).
   template <class A, class B>
   TSUBU_INLINE static Vec3 displacement(const Eigen::MatrixBase<A>& xi, const Eigen::MatrixBase<B>& xj) {
     return xi - xj;
   }
-  // Brings positions back into the box (open: nothing to do; a periodic box also counts the
-  // images crossed).
-  static void wrap(double*, std::size_t) {}
-  // The position of particle k as if it had never been wrapped (open: the position itself): what
-  // the gravitational energy and displacements over time are measured with.
-  template <class X>
-  static Vec3 unwrapped(const Eigen::MatrixBase<X>& x, std::size_t /*k*/) {
-    return x;
+
+  // ---- the box ---------------------------------------------------------------------------
+  // Periodic along the axes with periodic[d]; lower/upper along all three (the others give the
+  // stress volume only).
+  void set_box(const Vec3& lower, const Vec3& upper, const std::array<bool, 3>& periodic);
+  // Lees–Edwards: images across the `gradient` faces slide along `flow` at rate x L_gradient.
+  void set_shear(double rate, int flow, int gradient);
+  bool periodic() const { return any_; }
+  bool periodic(int d) const { return periodic_[d]; }
+  const Vec3& lower() const { return lo_; }
+  const Vec3& upper() const { return hi_; }
+  Vec3 length() const { return hi_ - lo_; }
+  double shear_rate() const { return rate_; }
+  int flow() const { return flow_; }
+  int gradient() const { return gradient_; }
+  bool sheared() const { return sheared_; }
+  // How far the images above the gradient faces have slid along the flow, in [0, L_flow) after
+  // a rebuild (continuous between rebuilds).
+  double shear_offset() const { return offset_; }
+  void set_shear_offset(double offset) { offset_ = offset; }
+  // The speed of the images across the sheared faces relative to the spheres: what the lists'
+  // moved bound adds per step.
+  double shear_speed() const { return std::abs(rate_) * length()[gradient_]; }
+
+  // ---- per run ---------------------------------------------------------------------------
+  // Slides the images by dt (Lees–Edwards).
+  void advance(double dt) { offset_ += rate_ * length()[gradient_] * dt; }
+  // Puts the owned spheres back into the box, counting images (and, across the sheared faces,
+  // their slide and velocity); called by a rebuild, with no ghosts present.
+  void wrap(ParticleStore& p, std::size_t n);
+  // One sphere's position, velocity, images and slide brought into the box (what wrap does to
+  // each; the accessors apply it to copies between rebuilds).
+  void wrap_one(double* x, double* v, int* image, double* slid) const;
+  // Appends the ghosts of the n owned spheres that lie within `margin` of the periodic faces
+  // (all images needed by pairs up to that reach), sorted by cell through `order` (a callback
+  // mapping a position to a sort key), and records their sources and shifts.
+  template <class Key>
+  void make_ghosts(ParticleStore& p, std::size_t n, double margin, Key&& key);
+  // Moves the ghosts with their sources: x = x_src + shift, v = v_src (+ the slide's speed), w.
+  void update_ghosts(ParticleStore& p, std::size_t n) const;
+  std::size_t ghosts() const { return source_.size(); }
+  const Array<Index>& ghost_sources() const { return source_; }
+  // The owned row of row j (itself for an owned sphere).
+  Index source(Index j, std::size_t n) const {
+    return static_cast<std::size_t>(j) < n ? j : source_[static_cast<std::size_t>(j) - n];
   }
-  // The region the cell grid must cover: the bounding box of the n positions x.
-  static void grid_extent(const double* x, std::size_t n, Vec3& lo, Vec3& hi) {
+  // Marks the sources of the ghosts marked (loaded: a byte per row; the contact pass marks
+  // both rows of a touching entry), clearing the ghosts' marks.
+  void fold(std::uint8_t* loaded, std::size_t n) const {
+    for (std::size_t q = 0; q < source_.size(); ++q)
+      if (loaded[n + q]) {
+        loaded[source_[q]] = 1;
+        loaded[n + q] = 0;
+      }
+  }
+  void clear_ghosts() {
+    source_.clear();
+    shift_.clear();
+    slide_.clear();
+  }
+
+  // The position of owned row k as if it had never been wrapped.
+  template <class X>
+  Vec3 unwrapped(const Eigen::MatrixBase<X>& x, const ParticleStore& p, std::size_t k) const {
+    if (!any_) return x;
+    Vec3 u = x;
+    for (int d = 0; d < 3; ++d) u[d] += p.image[3 * k + d] * (hi_[d] - lo_[d]);
+    u[flow_] += p.slid[k];
+    return u;
+  }
+  // The region the cell grid must cover: the bounding box of the n positions x (and ghosts).
+  void grid_extent(const double* x, std::size_t n, Vec3& lo, Vec3& hi) const {
     lo = Vec3::Constant(std::numeric_limits<double>::infinity());
     hi = -lo;
     for (std::size_t k = 0; k < n; ++k) {
@@ -41,6 +109,85 @@ struct Domain {
       hi = hi.cwiseMax(Vec3(vec3(x, k)));
     }
   }
+
+ private:
+  std::array<bool, 3> periodic_{false, false, false};
+  bool any_ = false, sheared_ = false;
+  Vec3 lo_ = Vec3::Zero(), hi_ = Vec3::Zero();
+  double rate_ = 0, offset_ = 0;
+  int flow_ = 0, gradient_ = 2;
+  // Per ghost: its source's row, its fixed shift, and its image along the gradient (-1, 0, 1:
+  // how many slides it takes).
+  Array<Index> source_;
+  Array<double> shift_;
+  Array<std::int8_t> slide_;
 };
+
+template <class Key>
+void Domain::make_ghosts(ParticleStore& p, std::size_t n, double margin, Key&& key) {
+  clear_ghosts();
+  if (!any_) return;
+  const Vec3 L = length();
+  // Each owned sphere's images within `margin` of the box: offsets -1, 0, 1 along each periodic
+  // axis; across the sheared faces the flow coordinate first slides, then takes any image of
+  // the flow axis (-2..1: a slide of up to one length) that lands within reach.
+  struct Ghost {
+    std::uint64_t key;
+    Index source;
+    std::array<double, 3> shift;
+    std::int8_t slide;
+  };
+  std::vector<Ghost> made;
+  auto inside = [&](const Vec3& y) {
+    for (int d = 0; d < 3; ++d)
+      if (periodic_[d] && (y[d] < lo_[d] - margin || y[d] >= hi_[d] + margin)) return false;
+    return true;
+  };
+  const int span[3] = {periodic_[0] ? 1 : 0, periodic_[1] ? 1 : 0, periodic_[2] ? 1 : 0};
+  for (std::size_t k = 0; k < n; ++k) {
+    const Vec3 x = vec3(p.x.data(), k);
+    for (int c2 = -span[2]; c2 <= span[2]; ++c2)
+      for (int c1 = -span[1]; c1 <= span[1]; ++c1)
+        for (int c0 = -span[0]; c0 <= span[0]; ++c0) {
+          int c[3] = {c0, c1, c2};
+          const int s = sheared_ ? c[gradient_] : 0;
+          Vec3 shift(c[0] * L[0], c[1] * L[1], c[2] * L[2]);
+          if (s != 0) {  // a sheared image: its flow image is chosen after the slide
+            if (c[flow_] != 0) continue;
+            const double slid = s * offset_;
+            for (int a = -2; a <= 1; ++a) {
+              Vec3 t = shift;
+              t[flow_] += a * L[flow_];
+              const Vec3 y = x + t;
+              Vec3 ys = y;
+              ys[flow_] += slid;
+              if (inside(ys)) made.push_back({key(ys), static_cast<Index>(k), {t[0], t[1], t[2]},
+                                              static_cast<std::int8_t>(s)});
+            }
+            continue;
+          }
+          if (c0 == 0 && c1 == 0 && c2 == 0) continue;
+          const Vec3 y = x + shift;
+          if (inside(y)) made.push_back({key(y), static_cast<Index>(k), {shift[0], shift[1], shift[2]}, 0});
+        }
+  }
+  std::stable_sort(made.begin(), made.end(), [](const Ghost& a, const Ghost& b) { return a.key < b.key; });
+  const std::size_t g = made.size();
+  source_.resize(g);
+  shift_.resize(3 * g);
+  slide_.resize(g);
+  for (std::size_t q = 0; q < g; ++q) {
+    source_[q] = made[q].source;
+    for (int d = 0; d < 3; ++d) shift_[3 * q + d] = made[q].shift[d];
+    slide_[q] = made[q].slide;
+  }
+  // The ghost rows: copies of their sources, then moved into place.
+  p.for_each_field([&](auto& a, int width) {
+    a.resize(width * (n + g));
+    for (std::size_t q = 0; q < g; ++q)
+      for (int c = 0; c < width; ++c) a[width * (n + q) + c] = a[width * source_[q] + c];
+  });
+  update_ghosts(p, n);
+}
 
 }  // namespace tsubu

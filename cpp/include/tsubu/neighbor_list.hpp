@@ -33,7 +33,7 @@ class NeighborList {
   struct Context {
     Particles& particles;
     Walls& walls;  // (a rebuild marks their positions for its criterion)
-    const Domain& domain;
+    Domain& domain;  // (a rebuild wraps a periodic box's spheres and makes its ghosts)
     ContactStore& contacts;
     const CompiledLaw& law;  // the entries' terms; the energy of a spring that opens
     bool law_chosen;         // false: no run has chosen the law yet (the contact shapes are unset)
@@ -109,6 +109,10 @@ class NeighborList {
   void rebuild(const Context& c, double skin, bool keep_history);
   // Refreshes the near lists from the Verlet list, carrying the contact state over.
   void refresh(const Context& c);
+  // Removes the spheres `gone` (count ids) from the particles and from every list, with their
+  // entries, in place: the others keep their order, their entries and their state, and no list
+  // falls due (an outlet removes a few spheres a step; a rebuild costs some twenty steps).
+  void remove(const Context& c, const Id* gone, std::size_t count);
   // near_entry from the current pair table (after a refresh, or when parameters change).
   void cache_terms(const Context& c);
   // Puts contact state saved by ids (checkpoints) into fresh lists: builds them without
@@ -149,11 +153,16 @@ class NeighborList {
   template <class Visit>
   void for_each_cell_around(const CellGrid& g, const CellKey& key, Visit&& visit) const;
 
+  // A periodic box's ghosts (Domain::make_ghosts), after the owned spheres, sorted by cell,
+  // and ghost_cell_start_ (each cell's ghosts, counted from the first ghost row).
+  void make_ghosts(const Context& c, const CellGrid& grid);
   void build_verlet(const Context& c, const CellGrid& grid, double skin);
   void build_walls(const Context& c, double skin, bool transfer, std::size_t old_n);
   // Builds the near list from the Verlet list; with `transfer`, carries the stashed state over
   // by (owner id, partner id); `reordered`: the particles were re-sorted since the stash.
   void refresh_near(const Context& c, bool transfer, bool reordered);
+  // busy, loaded, the sum entries, the reaches and `active` from the lists' entries.
+  void index_entries(const Context& c);
   // sum_entry and sum_offset from the near list, the reverse index and the near-wall list.
   void build_sum_entries(const Context& c);
   // reach_below, reach_above and max_entries from the near lists.
@@ -162,8 +171,10 @@ class NeighborList {
   static double spring_energy(const Context& c, int material_a, int material_b,
                               const Array<double>& xi, std::size_t e);
 
+  // The entry map of a removal: each old entry's new index, or -1.
+  Array<Index> pair_to_, wall_to_;
   // Scratch reused by rebuilds (no allocation once warm).
-  Array<Index> cell_start_, cell_of_, perm_, old_index_of_;
+  Array<Index> cell_start_, cell_of_, perm_, old_index_of_, ghost_cell_start_;
   Array<CellKey> cell_key_;
   Array<double> scratch_;
   Array<Index> scratch_int_;

@@ -22,6 +22,15 @@ namespace tsubu {
 class Particles {
  public:
   std::size_t size() const { return n_; }
+  // Ghost rows (a periodic box's images, domain.hpp) after the owned rows of the arrays; they
+  // are not spheres of their own: size(), ids and everything in id order ignore them.
+  std::size_t ghosts() const { return g_; }
+  void set_ghosts(std::size_t g) { g_ = g; }
+  void drop_ghosts() {
+    if (g_ == 0) return;
+    s_.for_each_field([&](auto& a, int width) { a.resize(width * n_); });
+    g_ = 0;
+  }
   // The arrays, internal order (the engine's passes read and write them through its views).
   ParticleStore& arrays() { return s_; }
   const ParticleStore& arrays() const { return s_; }
@@ -91,6 +100,7 @@ class Particles {
 
  private:
   std::size_t n_ = 0;
+  std::size_t g_ = 0;  // ghost rows
   ParticleStore s_;
   Array<Index> index_of_;  // id -> internal index, kGone for a removed sphere
   Array<Index> rank_of_;   // id -> row in id order; only once a sphere was removed (!dense())

@@ -105,6 +105,17 @@ class Simulation : private detail::RunHooks {
                const Vec3& velocity, const Vec3& angular_velocity, const Vec3& center);
   // Moves a wall's centre of rotation (the wall stays where it is).
   void set_wall_center(int wall, const Vec3& center);
+
+  // ---- a periodic box (domain.hpp, docs/periodic.md) ----------------------------------------
+  // Periodic along the axes with periodic[d], between lower and upper; a box with no periodic
+  // axis makes the domain open again.
+  void set_box(const Vec3& lower, const Vec3& upper, const std::array<bool, 3>& periodic);
+  // Lees–Edwards shear at `rate` (1/s): flow along axis `flow`, gradient along `gradient`.
+  void set_shear(double rate, int flow, int gradient);
+  const Domain& domain() const { return domain_; }
+  // Per sphere in id order: the images crossed (3 each), the unwrapped position (3 each).
+  void get_images(std::int64_t* out) const;
+  void get_unwrapped_positions(double* out) const;
   // Takes a wall out: from the next run on it touches nothing; its contacts end (their energy
   // leaves with them); other walls keep their indices.
   void remove_wall(int wall);
@@ -252,8 +263,9 @@ class Simulation : private detail::RunHooks {
 
   // ---- state, in id order ------------------------------------------------------------------
   std::size_t size() const { return particles_.size(); }
-  void get_positions(double* out) const { particles_.gather(particles_.arrays().x.data(), out); }
-  void get_velocities(double* out) const { particles_.gather(particles_.arrays().v.data(), out); }
+  // (In a periodic box, positions and velocities as wrapped into it.)
+  void get_positions(double* out) const { gather_wrapped(out, nullptr); }
+  void get_velocities(double* out) const { gather_wrapped(nullptr, out); }
   void get_angular_velocities(double* out) const {
     particles_.gather(particles_.arrays().w.data(), out);
   }
@@ -433,6 +445,10 @@ class Simulation : private detail::RunHooks {
 
   // The parts.
   Domain domain_;
+  // Positions and/or velocities in id order, wrapped into a periodic box.
+  void gather_wrapped(double* x, double* v) const;
+  // Refuses a periodic length below twice the neighbour reach (at run start).
+  void check_box() const;
   Particles particles_;
   Walls walls_;
   // With meshes: every near-wall entry's plane at the current positions (wall_planes_now()).

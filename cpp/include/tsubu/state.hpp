@@ -19,13 +19,17 @@ struct ParticleStore {
   Array<double> dissipated;  // energy lost in the contacts this particle owns, J
   Array<int> material;
   Array<Id> id;  // stable id (order of addition) of the particle at each index
+  // A periodic box (domain.hpp): the images crossed along each axis, and the distance slid along
+  // the flow across Lees–Edwards faces, so that x + image L + slid is the unwrapped position.
+  Array<int> image;
+  Array<double> slid;
 
   // The field table: every array with the number of values it holds per particle.
   template <class S, class F>
   static void fields(S& s, F&& f) {
     f(s.x, 3), f(s.v, 3), f(s.w, 3);
     f(s.radius, 1), f(s.mass, 1), f(s.inv_mass, 1), f(s.inv_inertia, 1), f(s.dissipated, 1);
-    f(s.material, 1), f(s.id, 1);
+    f(s.material, 1), f(s.id, 1), f(s.image, 3), f(s.slid, 1);
   }
   template <class F>
   void for_each_field(F&& f) { fields(*this, f); }

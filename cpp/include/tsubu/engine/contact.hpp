@@ -119,7 +119,7 @@ struct Contacts {
   TSUBU_INLINE static double pair(const ContactView& c, Index q, double inv_dist, double& excess) {
     const Index i = c.own[q], j = c.par[q];
     const double ri = c.r[i], rj = c.r[j], dt = c.dt;
-    const Vec3 d = c.box.displacement(vec3(c.x, i), vec3(c.x, j));
+    const Vec3 d = Domain::displacement(vec3(c.x, i), vec3(c.x, j));
     const double rs = ri + rj;
     const double dist2 = dot(lanes(d), lanes(d));
     const PairParams& params = (*c.table)(c.mat[i], c.mat[j]);

@@ -23,7 +23,7 @@ struct ContactPass {
   static Index compact_pairs(const ContactView& c, Index lo, Index hi, Scan& s) {
     Index count = 0;
     for (Index q = lo; q < hi; ++q) {
-      const L3 d = lanes(c.box.displacement(vec3(c.x, c.own[q]), vec3(c.x, c.par[q])));
+      const L3 d = lanes(Domain::displacement(vec3(c.x, c.own[q]), vec3(c.x, c.par[q])));
       const double dd = dot(d, d);
       s.act[count] = q;
       s.dx[count] = d.x, s.dy[count] = d.y, s.dz[count] = d.z, s.d2[count] = dd;

@@ -30,7 +30,9 @@ struct Stepper {
     const double dt = run.dt;
     const bool moving = s.walls.moving();
     // Fixed spheres with a prescribed motion work on the scene as a moving wall does.
-    const bool driven = moving || (s.fixed && s.fixed->moving());
+    // So does a Lees–Edwards box.
+    const bool driven = moving || (s.fixed && s.fixed->moving()) || s.domain.shear_rate() != 0;
+    const bool periodic = s.domain.periodic();
     PhaseTimer clock(run.phase_seconds);
     // With fixed walls no energy enters the scene: the balance is checked every kEnergyCheck
     // steps (RunHooks::audit), which catches the bounded bursts that a dense pack run above its
@@ -54,6 +56,7 @@ struct Stepper {
         s.hooks.update_lists();
         clock.lap(Phase::Neighbors);
         found = CP::run(ContactView(s, dt));
+        if (periodic) s.domain.fold(lists.loaded.data(), s.particles.size());
         clock.lap(Phase::Contacts);
       } else if (lists.needs_rebuild(s.walls, s.options.rebuild_every_step) || lists.needs_refresh()) {
         throw std::logic_error("tsubu: a fused step moved particles further than its bound");
@@ -75,13 +78,17 @@ struct Stepper {
                 : PP::run(pv, vmax2);
       if (s.fixed) vmax2 = std::max(vmax2, s.fixed->after(s.particles, dt));
       run.last_move = std::sqrt(vmax2) * dt;  // the distance any particle moved: dt max|v|
-      lists.book_moved(run.last_move);
+      // (A Lees–Edwards image also moves at the slide's speed.)
+      lists.book_moved(periodic ? run.last_move + dt * s.domain.shear_speed() : run.last_move);
       if (nonfinite) s.hooks.report_nonfinite_velocity();
       if (moving) {
         if (s.walls.servoed()) s.hooks.steer_walls();
         s.walls.advance(dt);
       }
-      s.domain.wrap(s.particles.arrays().x.data(), s.particles.size());
+      if (periodic) {
+        s.domain.advance(dt);
+        s.domain.update_ghosts(s.particles.arrays(), s.particles.size());
+      }
       ++run.step;
       run.time += dt;
       if (s.outlets) s.hooks.remove_outgoing();
@@ -94,7 +101,8 @@ struct Stepper {
   static bool fuses(const World& s, bool moving) {
     // (A fixed sphere is put in place after the particle pass, and an outlet removes spheres
     // after it: neither can be fused with the next contact pass.)
-    return Features<Law>::kBlocked && !moving && !s.fixed && !s.outlets &&
+    // (Nor can a periodic box, whose ghosts follow their sources between the two.)
+    return Features<Law>::kBlocked && !moving && !s.fixed && !s.outlets && !s.domain.periodic() &&
            s.particles.size() >= ContactView::kFar;
   }
 

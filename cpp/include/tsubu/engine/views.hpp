@@ -79,7 +79,6 @@ struct ContactView {
   bool moving;  // a wall moves: wall contacts take its velocity
   const PairTable* table;
   const PairParams* same;  // the parameters of every pair when all spheres share a material
-  Domain box;
   std::uint64_t step, seed;
   double dt;
   Index pairs, walls;  // near-pair and near-wall entries
@@ -110,7 +109,7 @@ struct ContactView {
         planes(s.walls.planes()), meshes(s.walls.has_meshes() ? &s.walls : nullptr),
         tangent(s.walls.has_meshes() ? l.wall_tangent.data() : nullptr), moving(s.walls.moving()), table(&s.pairs),
         same(s.sphere_material >= 0 ? &s.pairs(s.sphere_material, s.sphere_material) : nullptr),
-        box(s.domain), step(std::uint64_t(s.run.step + ahead)), seed(s.options.seed), dt(dt_),
+        step(std::uint64_t(s.run.step + ahead)), seed(s.options.seed), dt(dt_),
         pairs(Index(l.near_partner.size())), walls(Index(l.wall_near.size())), threads(s.threads),
         far(s.particles.size() >= kFar) {}
 };

@@ -1,0 +1,108 @@
+// A periodic box and Lees–Edwards shear on the Simulation (domain.hpp, docs/periodic.md).
+#include <algorithm>
+#include <cmath>
+#include <string>
+
+#include "check.hpp"
+#include "tsubu/simulation.hpp"
+
+namespace tsubu {
+
+using detail::fmt;
+using detail::require;
+
+namespace {
+const char* const kAxis[3] = {"x", "y", "z"};
+}
+
+void Simulation::set_box(const Vec3& lower, const Vec3& upper, const std::array<bool, 3>& periodic) {
+  if (running()) throw std::logic_error("tsubu: Simulation::set_box during a run");
+  require(lower.allFinite() && upper.allFinite(), "box: lower and upper must be finite");
+  for (int d = 0; d < 3; ++d)
+    require(!periodic[d] || upper[d] > lower[d], [&] {
+      return std::string("box: upper must exceed lower along the periodic axis ") + kAxis[d] + ", got " +
+             fmt(lower[d]) + " to " + fmt(upper[d]);
+    });
+  if (domain_.sheared() && !(periodic[domain_.flow()] && periodic[domain_.gradient()]))
+    domain_.set_shear(0, domain_.flow(), domain_.gradient());  // (kept only with its axes)
+  domain_.set_box(lower, upper, periodic);
+  domain_.clear_ghosts();
+  particles_.drop_ghosts();
+  lists_.valid = false;
+  energy_ref_valid_ = false;
+}
+
+void Simulation::set_shear(double rate, int flow, int gradient) {
+  if (running()) throw std::logic_error("tsubu: Simulation::set_shear during a run");
+  require(std::isfinite(rate), "shear rate must be finite, got " + fmt(rate));
+  require(flow >= 0 && flow < 3 && gradient >= 0 && gradient < 3 && flow != gradient,
+          "shear: flow and gradient must be two different axes");
+  require(domain_.periodic(flow) && domain_.periodic(gradient), [&] {
+    return std::string("shear: the box must be periodic along the flow (") + kAxis[flow] + ") and the gradient (" +
+           kAxis[gradient] + "): call set_box first";
+  });
+  const bool same = domain_.sheared() && domain_.flow() == flow && domain_.gradient() == gradient;
+  domain_.set_shear(rate, flow, gradient);
+  if (!same) {  // new images: the ghosts are made again
+    domain_.clear_ghosts();
+    particles_.drop_ghosts();
+    lists_.valid = false;
+  }
+  energy_ref_valid_ = false;
+}
+
+void Simulation::check_box() const {
+  if (!domain_.periodic() || particles_.size() == 0) return;
+  const ParticleStore& p = particles_.arrays();
+  const double rmax = *std::max_element(p.radius.begin(), p.radius.begin() + particles_.size());
+  const double reach = 2 * rmax + skin();
+  for (int d = 0; d < 3; ++d)
+    require(!domain_.periodic(d) || domain_.length()[d] >= 2 * reach, [&] {
+      return std::string("box: the periodic length along ") + kAxis[d] + " is " + fmt(domain_.length()[d]) +
+             " m, less than twice the neighbour reach 2 (2 r_max + skin) = " + fmt(2 * reach) +
+             " m: a sphere would meet two images of another; enlarge the box or reduce the skin";
+    });
+}
+
+void Simulation::gather_wrapped(double* x, double* v) const {
+  const ParticleStore& p = particles_.arrays();
+  if (!domain_.periodic()) {
+    if (x) particles_.gather(p.x.data(), x);
+    if (v) particles_.gather(p.v.data(), v);
+    return;
+  }
+  for (std::size_t k = 0; k < particles_.size(); ++k) {
+    double xk[3], vk[3], slid = p.slid[k];
+    int image[3];
+    for (int c = 0; c < 3; ++c) xk[c] = p.x[3 * k + c], vk[c] = p.v[3 * k + c], image[c] = p.image[3 * k + c];
+    domain_.wrap_one(xk, vk, image, &slid);
+    const std::size_t row = particles_.rank(p.id[k]);
+    for (int c = 0; c < 3; ++c) {
+      if (x) x[3 * row + c] = xk[c];
+      if (v) v[3 * row + c] = vk[c];
+    }
+  }
+}
+
+void Simulation::get_images(std::int64_t* out) const {
+  const ParticleStore& p = particles_.arrays();
+  for (std::size_t k = 0; k < particles_.size(); ++k) {
+    double xk[3], vk[3], slid = p.slid[k];
+    int image[3];
+    for (int c = 0; c < 3; ++c) xk[c] = p.x[3 * k + c], vk[c] = p.v[3 * k + c], image[c] = p.image[3 * k + c];
+    if (domain_.periodic()) domain_.wrap_one(xk, vk, image, &slid);
+    const std::size_t row = particles_.rank(p.id[k]);
+    for (int c = 0; c < 3; ++c) out[3 * row + c] = image[c];
+  }
+}
+
+void Simulation::get_unwrapped_positions(double* out) const {
+  const ParticleStore& p = particles_.arrays();
+  for (std::size_t k = 0; k < particles_.size(); ++k) {
+    const Vec3 u = domain_.unwrapped(vec3(p.x.data(), k), p, k);
+    const std::size_t row = particles_.rank(p.id[k]);
+    for (int c = 0; c < 3; ++c) out[3 * row + c] = u[c];
+  }
+}
+
+}  // namespace tsubu
