@@ -19,11 +19,11 @@ NeighborList::CellGrid NeighborList::plan_grid(const Context& c, double skin) co
   c.domain.grid_extent(p.x.data(), n, g.lo, g.hi);
   const double rmax = *std::max_element(p.radius.begin(), p.radius.begin() + n);
   g.h = 2.0 * rmax + skin;  // cells no smaller than the largest cutoff
-  // A periodic box: the box and its ghosts' layer, one cutoff deep, on a dense grid.
+  // A periodic box: the box and its ghosts' layer (NeighborList::ghost_margin), on a dense grid.
   for (int d = 0; d < 3; ++d)
     if (c.domain.periodic(d)) {
-      g.lo[d] = c.domain.lower()[d] - g.h;
-      g.hi[d] = c.domain.upper()[d] + g.h;
+      g.lo[d] = c.domain.lower()[d] - ghost_margin(g.h, skin);
+      g.hi[d] = c.domain.upper()[d] + ghost_margin(g.h, skin);
     }
   const double max_cells = 2.0 * static_cast<double>(n) + 1000.0;
   double total = 1;

@@ -123,7 +123,7 @@ Simulation::ContactState Simulation::contact_state(bool walls) const {
   return c;
 }
 
-void Simulation::set_contact_state(const ContactState& pairs, const ContactState& walls) {
+void Simulation::set_contact_state(const ContactState& pairs, const ContactState& walls, bool wrap) {
   mix_pairs();
   select_law();
   for (int w = 0; w < 2; ++w) {
@@ -150,7 +150,7 @@ void Simulation::set_contact_state(const ContactState& pairs, const ContactState
       require(touching(*law_, c.values[1][e]), "a stored contact is not touching");
     }
   }
-  lists_.rebuild_empty(list_context(), skin());  // fresh lists, no state
+  lists_.rebuild_empty(list_context(), skin(), wrap);  // fresh lists, no state
   auto put = [](EntryStore& st, const ContactState& c, std::size_t from, Index to) {
     const auto arrays = st.carried();
     for (std::size_t k = 0; k < EntryStore::kFields; ++k) {
@@ -403,6 +403,7 @@ void Simulation::save(std::ostream& out) const {
   });
   section("particles", [&](archive::Writer& w) { particles_.save(w); });
   section("walls", [&](archive::Writer& w) { walls_.save(w); });
+  if (domain_.periodic()) section("periodic", [&](archive::Writer& w) { save_periodic(w); });  // (optional)
   section("pair_contacts", [&](archive::Writer& w) { contact_state(false).save(w); });
   section("wall_contacts", [&](archive::Writer& w) {
     const ContactState c = contact_state(true);
@@ -485,6 +486,17 @@ Simulation Simulation::load(std::istream& in) {
   s.walls_.restore(walls, s.material_count());
   walls.finish();
 
+  double moved[3] = {0, 0, 0};
+  const bool periodic = top.next_is("periodic");
+  if (periodic) {
+    archive::Reader b = top.section("periodic");
+    s.restore_periodic(b);
+    moved[0] = b.real("moved");
+    moved[1] = b.real("moved_near");
+    moved[2] = b.real("skin");
+    b.finish();
+  }
+
   ContactState contacts[2];
   const char* names[2] = {"pair_contacts", "wall_contacts"};
   for (int w = 0; w < 2; ++w) {
@@ -504,13 +516,18 @@ Simulation Simulation::load(std::istream& in) {
     }
     r.finish();
   }
-  s.set_contact_state(contacts[0], contacts[1]);
+  s.set_contact_state(contacts[0], contacts[1], !periodic);
 
   archive::Reader run = top.section("run");
   RunState state;
   state.restore(run);
   run.finish();
   s.set_run_state(state);
+  if (periodic) {  // lists as the saved run's (its skin), falling due when its would have
+    s.lists_.rebuild(s.list_context(), moved[2], true, false);
+    s.lists_.moved = moved[0];
+    s.lists_.moved_near = moved[1];
+  }
   if (top.next_is("boundaries")) {
     archive::Reader b = top.section("boundaries");
     s.restore_boundaries(b);

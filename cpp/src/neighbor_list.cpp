@@ -23,7 +23,7 @@ void insertion_sort(Index* first, Index* last, Key key) {
 
 }  // namespace
 
-void NeighborList::rebuild(const Context& c, double skin_now, bool keep_history) {
+void NeighborList::rebuild(const Context& c, double skin_now, bool keep_history, bool wrap) {
   // 1. Cells: the bounding box of the particles, cells no smaller than the largest cutoff. The
   //    particles are binned and the list's size checked before anything changes, so that a
   //    list that cannot fit is refused with the state as it was. (A periodic box first wraps
@@ -58,7 +58,7 @@ void NeighborList::rebuild(const Context& c, double skin_now, bool keep_history)
   if (periodic) {
     c.particles.drop_ghosts();
     c.domain.clear_ghosts();
-    c.domain.wrap(c.particles.arrays(), c.particles.size());
+    if (wrap) c.domain.wrap(c.particles.arrays(), c.particles.size());
     bin();
   }
   if (c.particles.size() > 0) c.particles.permute(perm_, scratch_);
@@ -89,7 +89,7 @@ void NeighborList::make_ghosts(const Context& c, const CellGrid& g) {
     for (int d = 0; d < 3; ++d) k[d] = std::clamp(static_cast<long>((y[d] - g.lo[d]) / g.h), 0L, g.dims[d] - 1);
     return static_cast<std::uint64_t>((k[2] * g.dims[1] + k[1]) * g.dims[0] + k[0]);
   };
-  c.domain.make_ghosts(c.particles.arrays(), n, g.h, cell);
+  c.domain.make_ghosts(c.particles.arrays(), n, ghost_margin(g.h, skin), cell);
   c.particles.set_ghosts(c.domain.ghosts());
   const double* x = c.particles.arrays().x.data();
   ghost_cell_start_.assign(ncell + 1, 0);
@@ -499,7 +499,9 @@ void NeighborList::cache_terms(const Context& c) {
   }
 }
 
-void NeighborList::rebuild_empty(const Context& c, double skin_now) { rebuild(c, skin_now, false); }
+void NeighborList::rebuild_empty(const Context& c, double skin_now, bool wrap) {
+  rebuild(c, skin_now, false, wrap);
+}
 
 void NeighborList::finish_restore(const Context& c) { refresh_near(c, false, false); }
 

@@ -108,7 +108,7 @@ void Particles::extremes(std::size_t materials, std::vector<double>& lightest,
 
 double Particles::radius_sum() const {
   double sum = 0;
-  for (double r : s_.radius) sum += r;
+  for (std::size_t k = 0; k < n_; ++k) sum += s_.radius[k];  // (not the ghosts)
   return sum;
 }
 

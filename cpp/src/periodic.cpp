@@ -4,6 +4,7 @@
 #include <string>
 
 #include "check.hpp"
+#include "tsubu/archive.hpp"
 #include "tsubu/simulation.hpp"
 
 namespace tsubu {
@@ -102,6 +103,55 @@ void Simulation::get_unwrapped_positions(double* out) const {
     const Vec3 u = domain_.unwrapped(vec3(p.x.data(), k), p, k);
     const std::size_t row = particles_.rank(p.id[k]);
     for (int c = 0; c < 3; ++c) out[3 * row + c] = u[c];
+  }
+}
+
+void Simulation::save_periodic(archive::Writer& w) const {
+  const Vec3 lo = domain_.lower(), hi = domain_.upper();
+  w.reals("lower", {lo[0], lo[1], lo[2]});
+  w.reals("upper", {hi[0], hi[1], hi[2]});
+  w.integers("periodic", {domain_.periodic(0), domain_.periodic(1), domain_.periodic(2)});
+  w.integer("sheared", domain_.sheared());
+  w.integers("axes", {domain_.flow(), domain_.gradient()});
+  w.real("rate", domain_.shear_rate());
+  w.real("offset", domain_.shear_offset());
+  const std::size_t n = particles_.size();
+  std::vector<std::int64_t> image(3 * n);
+  std::vector<double> slid(n);
+  const ParticleStore& p = particles_.arrays();
+  for (std::size_t k = 0; k < n; ++k) {
+    const std::size_t row = particles_.rank(p.id[k]);
+    for (int c = 0; c < 3; ++c) image[3 * row + c] = p.image[3 * k + c];
+    slid[row] = p.slid[k];
+  }
+  w.integers("image", image);
+  w.reals("slid", slid);
+  w.real("moved", lists_.moved);
+  w.real("moved_near", lists_.moved_near);
+  w.real("skin", lists_.skin);
+}
+
+void Simulation::restore_periodic(archive::Reader& r) {
+  const std::vector<double> lo = r.reals("lower", 3), hi = r.reals("upper", 3);
+  const std::vector<std::int64_t> per = r.integers("periodic", 3);
+  const bool sheared = r.integer("sheared") != 0;
+  const std::vector<std::int64_t> axes = r.integers("axes", 2);
+  const double rate = r.real("rate"), offset = r.real("offset");
+  for (std::int64_t a : axes)
+    if (a < 0 || a > 2) r.fail("a shear axis " + std::to_string(a));
+  set_box(Vec3(lo[0], lo[1], lo[2]), Vec3(hi[0], hi[1], hi[2]), {per[0] != 0, per[1] != 0, per[2] != 0});
+  if (sheared) {
+    set_shear(rate, static_cast<int>(axes[0]), static_cast<int>(axes[1]));
+    domain_.set_shear_offset(offset);
+  }
+  const std::size_t n = particles_.size();
+  const std::vector<std::int64_t> image = r.integers("image", 3 * n);
+  const std::vector<double> slid = r.reals("slid", n);
+  ParticleStore& p = particles_.arrays();
+  for (std::size_t k = 0; k < n; ++k) {
+    const std::size_t row = particles_.rank(p.id[k]);
+    for (int c = 0; c < 3; ++c) p.image[3 * k + c] = static_cast<int>(image[3 * row + c]);
+    p.slid[k] = slid[row];
   }
 }
 

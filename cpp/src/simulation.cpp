@@ -315,7 +315,7 @@ void Simulation::prepare_run() {
   select_law();
   if (law_->sticky) {  // a touching contact must stay in the near list: r_i + r_j + skin/10
     double rmax = 0, sep = 0;
-    for (double r : particles_.arrays().radius) rmax = std::max(rmax, r);
+    for (std::size_t k = 0; k < particles_.size(); ++k) rmax = std::max(rmax, particles_.arrays().radius[k]);
     for (std::size_t a = 0; a < materials_.size(); ++a)
       for (std::size_t b = a; b < materials_.size(); ++b)
         sep = std::max(sep, law_->separation(pair_parameters(int(a), int(b)), rmax));
@@ -455,7 +455,8 @@ double Simulation::max_move() const {
   // check sees them; a longer one can carry them through one another unseen. (A wall is a
   // half-space: a sphere cannot pass it unseen.)
   double a = std::numeric_limits<double>::infinity(), b = a;
-  for (double r : particles_.arrays().radius) {
+  for (std::size_t k = 0; k < particles_.size(); ++k) {  // (not the ghosts: copies of these)
+    const double r = particles_.arrays().radius[k];
     if (r < a) b = a, a = r;
     else if (r < b) b = r;
   }

@@ -106,7 +106,9 @@ class NeighborList {
   // `keep_history`, carries the contact state over by ids (a touching contact whose spheres
   // jumped apart by more than the skin in one step has opened: its spring energy is booked as
   // lost, as the step would have).
-  void rebuild(const Context& c, double skin, bool keep_history);
+  // `wrap` false keeps a periodic box's spheres where they are (a checkpoint's restore: the
+  // run it resumes wraps them at its own next rebuild, so that the bits match).
+  void rebuild(const Context& c, double skin, bool keep_history, bool wrap = true);
   // Refreshes the near lists from the Verlet list, carrying the contact state over.
   void refresh(const Context& c);
   // Removes the spheres `gone` (count ids) from the particles and from every list, with their
@@ -117,7 +119,10 @@ class NeighborList {
   void cache_terms(const Context& c);
   // Puts contact state saved by ids (checkpoints) into fresh lists: builds them without
   // carrying anything, and returns; the caller fills the entries, then calls finish_restore().
-  void rebuild_empty(const Context& c, double skin);
+  void rebuild_empty(const Context& c, double skin, bool wrap = true);
+  // How deep the ghosts' layer is: a pair's reach (the cell side h = 2 r_max + skin) beyond
+  // spheres that may have left the box by up to skin/2 since it was wrapped.
+  static double ghost_margin(double h, double skin) { return h + skin; }
   void finish_restore(const Context& c);
 
   // The Verlet list's pairs as ids, lower first, sorted.

@@ -347,7 +347,7 @@ class Simulation : private detail::RunHooks {
   ContactState contact_state(bool walls) const;
   // Builds the lists and puts the saved state into them; throws InvalidArgument if a contact
   // names no sphere or wall, or if the widths are not those of the scene's law.
-  void set_contact_state(const ContactState& pairs, const ContactState& walls);
+  void set_contact_state(const ContactState& pairs, const ContactState& walls, bool wrap = true);
   void get_dissipated(double* out) const;
   void set_dissipated(const double* in);
   // A wall's whole state, bit for bit (add_plane normalises the normal; this does not).
@@ -449,6 +449,10 @@ class Simulation : private detail::RunHooks {
   void gather_wrapped(double* x, double* v) const;
   // Refuses a periodic length below twice the neighbour reach (at run start).
   void check_box() const;
+  // Checkpoints of a periodic box: the box, the shear, each sphere's images and slide, and the
+  // lists' moved bounds (so that a resumed run wraps at the steps the first would have).
+  void save_periodic(archive::Writer& w) const;
+  void restore_periodic(archive::Reader& r);
   Particles particles_;
   Walls walls_;
   // With meshes: every near-wall entry's plane at the current positions (wall_planes_now()).
