@@ -1,0 +1,154 @@
+"""Periodic boxes and Lees-Edwards shear (docs/periodic.md): images as ghosts of the owned
+spheres, contacts across the faces with their history, image counters, checkpoints."""
+
+import numpy as np
+import pytest
+
+import tsubu
+
+R = 1.0e-3  # radius [m]
+
+
+def elastic():
+    return tsubu.Material(density=2500.0, kn=1e4, restitution=1.0, friction=0.0)
+
+
+def frictional():
+    return tsubu.Material(density=2500.0, kn=1e4, restitution=0.5, friction=0.5)
+
+
+def lattice(per_side: int, length: float, jitter: float = 0.0, seed: int = 1) -> np.ndarray:
+    g = (np.arange(per_side) + 0.5) * length / per_side
+    x = np.array(np.meshgrid(g, g, g, indexing="ij")).reshape(3, -1).T
+    return x + np.random.default_rng(seed).normal(0.0, jitter, x.shape)
+
+
+def sheared_cell(threads=1, rate=20.0):
+    """512 frictional spheres nearly touching in a 16 mm periodic cube, sheared along x over z."""
+    length = 0.016
+    sim = tsubu.Simulation(gravity=(0, 0, 0), threads=threads)
+    sim.add_spheres(lattice(8, length, 1e-5, seed=2), 0.99 * R, frictional())
+    sim.set_box((0, 0, 0), (length,) * 3, "xyz")
+    sim.set_shear(rate, "x", "z")
+    return sim, length
+
+
+def test_a_cluster_across_a_face_moves_as_the_same_cluster_inside():
+    # Two spheres colliding obliquely (friction on) right on the x face follow, to round-off,
+    # the trajectory of the same pair in the middle of the box shifted by the box vector.
+    length = 0.02
+    v = np.array([[0.3, 0.05, 0.0], [-0.3, 0.0, 0.02]])
+    w = np.array([[0.0, 0.0, 40.0], [10.0, 0.0, 0.0]])
+
+    def run(x):
+        sim = tsubu.Simulation(gravity=(0, 0, 0))
+        sim.add_spheres(x, R, frictional(), velocities=v, angular_velocities=w)
+        sim.set_box((0, 0, 0), (length,) * 3, "xyz")
+        sim.run(steps=4000)
+        return sim
+
+    centre = np.array([[0.0097, 0.01, 0.01], [0.0121, 0.0103, 0.01]])
+    shift = np.array([-0.0103, 0.0, 0.0])  # the pair straddles x = 0 (sphere 0 starts outside)
+    inside, edge = run(centre), run(centre + shift)
+    assert np.abs(inside.velocities - edge.velocities).max() < 1e-12
+    assert np.abs(inside.angular_velocities - edge.angular_velocities).max() < 1e-9
+    moved = edge.unwrapped_positions - shift
+    assert np.abs(moved - inside.unwrapped_positions).max() < 1e-15
+    assert edge.images[0, 0] == -1  # wrapped into the box, counted
+
+
+def test_an_elastic_frictionless_gas_conserves_energy_and_momentum():
+    # Symplectic Euler keeps the energy within its O(dt) band (docs/physics.md, (2.2)); momentum
+    # is exact to round-off: every contact force acts on both spheres, across the faces too.
+    length = 0.02
+    sim = tsubu.Simulation(gravity=(0, 0, 0))
+    x = lattice(6, length)
+    sim.add_spheres(x, R, elastic(), velocities=np.random.default_rng(1).normal(0, 0.1, x.shape))
+    sim.set_box((0, 0, 0), (length,) * 3, "xyz")
+    e0 = sim.energy()["total"]
+    p0 = (sim.masses[:, None] * sim.velocities).sum(0)
+    sim.run(steps=100_000)
+    assert abs(sim.energy()["total"] - e0) / e0 < 1e-4
+    p1 = (sim.masses[:, None] * sim.velocities).sum(0)
+    assert np.abs(p1 - p0).max() < 1e-12 * np.abs(sim.masses[:, None] * sim.velocities).sum()
+    assert np.abs(sim.images).max() >= 1  # spheres did cross the faces
+    assert np.all(sim.positions >= 0) and np.all(sim.positions < length)
+    np.testing.assert_array_equal(sim.unwrapped_positions, sim.positions + sim.images * length)
+
+
+def test_gravity_along_a_periodic_axis_keeps_the_energy_audit_exact():
+    # A falling gas in a box periodic along z: the gravitational energy uses unwrapped heights.
+    length = 0.02
+    sim = tsubu.Simulation(gravity=(0, 0, -9.81))
+    sim.add_spheres(lattice(4, length), R, elastic())
+    sim.set_box((0, 0, 0), (length,) * 3, "xyz")
+    e0 = sim.energy()["total"]
+    sim.run(steps=60_000)  # ~0.07 s: each sphere falls through the box more than once
+    assert sim.images[:, 2].min() <= -1
+    e = sim.energy()
+    assert abs(e["total"] - e0) < 1e-4 * abs(e["kinetic"])
+
+
+def test_lees_edwards_reaches_the_linear_mean_profile():
+    # u_x(z) = rate (z - L/2) develops from rest through the sliding images alone (no walls).
+    sim, length = sheared_cell()
+    rate = 20.0
+    sim.run(time=0.3)
+    x, v = sim.positions, sim.velocities
+    edges = np.linspace(0, length, 5)
+    mid = 0.5 * (edges[1:] + edges[:-1])
+    u = [v[(x[:, 2] >= a) & (x[:, 2] < b), 0].mean() for a, b in zip(edges[:-1], edges[1:])]
+    slope = np.polyfit(mid, u, 1)[0]
+    assert 0.6 * rate < slope < 1.2 * rate
+    assert np.all(np.diff(u) > 0)
+    box = sim.box
+    assert box.shear_rate == rate and box.flow == "x" and box.gradient == "z"
+
+
+def test_same_bits_for_any_thread_count_and_through_a_checkpoint(tmp_path):
+    a, _ = sheared_cell()
+    a.run(steps=30_000)  # (spheres have crossed the faces and the images slid)
+    assert np.abs(a.images).max() >= 1
+    b = tsubu.Simulation.load(a.save(tmp_path / "cell.tsubu"))
+    a.run(steps=20_000)
+    b.run(steps=20_000)
+    for name in ("positions", "velocities", "angular_velocities", "images"):
+        np.testing.assert_array_equal(getattr(a, name), getattr(b, name))
+    assert a.box.shear_offset == b.box.shear_offset
+    c, _ = sheared_cell(threads=2)
+    c.run(steps=50_000)
+    np.testing.assert_array_equal(a.positions, c.positions)
+    np.testing.assert_array_equal(a.velocities, c.velocities)
+
+
+def test_bad_boxes_are_refused():
+    sim = tsubu.Simulation()
+    sim.add_spheres(lattice(2, 0.02), R, elastic())
+    with pytest.raises(ValueError, match="upper must exceed lower"):
+        sim.set_box((0, 0, 0), (0.02, 0.0, 0.02), "xyz")
+    with pytest.raises(ValueError, match="periodic"):
+        sim.set_box((0, 0, 0), (0.02, 0.02, 0.02), "xw")
+    with pytest.raises(TypeError, match="periodic"):
+        sim.set_box((0, 0, 0), (0.02, 0.02, 0.02), 3)
+    with pytest.raises(ValueError, match="lower"):
+        sim.set_box((0, float("nan"), 0), (0.02, 0.02, 0.02))
+    with pytest.raises(ValueError, match="set_box first"):
+        sim.set_shear(1.0)
+    sim.set_box((0, 0, 0), (0.02, 0.02, 0.02), "xy")
+    with pytest.raises(ValueError, match="gradient"):
+        sim.set_shear(1.0, "x", "z")
+    with pytest.raises(ValueError, match="different axes"):
+        sim.set_shear(1.0, "x", "x")
+    small = tsubu.Simulation()
+    small.add_spheres(lattice(2, 0.0045), R, elastic())  # reach 2 r + skin = 2.4 mm
+    small.set_box((0, 0, 0), (0.0045,) * 3, "xyz")
+    with pytest.raises(ValueError, match="less than twice the neighbour reach"):
+        small.run(steps=1)
+
+
+def test_an_open_scene_has_no_box_and_zero_images():
+    sim = tsubu.Simulation()
+    sim.add_spheres(lattice(2, 0.02), R, elastic())
+    assert sim.box is None
+    np.testing.assert_array_equal(sim.images, np.zeros((8, 3)))
+    np.testing.assert_array_equal(sim.unwrapped_positions, sim.positions)
