@@ -13,6 +13,9 @@ void register_periodic(py::class_<tsubu::Simulation>& cls) {
          },
          "lower"_a, "upper"_a, "periodic"_a)
       .def("set_shear", &Sim::set_shear, "rate"_a, "flow"_a, "gradient"_a)
+      .def("set_pressure", &Sim::set_pressure, "pressure"_a, "axis"_a, "gain"_a, "max_rate"_a)
+      .def("clear_pressure", &Sim::clear_pressure)
+      .def("box_pressure", &Sim::box_pressure, "axis"_a)
       .def("box",
            [](const Sim& s) {
              const tsubu::Domain& d = s.domain();
@@ -22,7 +25,9 @@ void register_periodic(py::class_<tsubu::Simulation>& cls) {
                              "periodic"_a = std::array<bool, 3>{d.periodic(0), d.periodic(1), d.periodic(2)},
                              "sheared"_a = d.sheared(), "shear_rate"_a = d.shear_rate(),
                              "shear_offset"_a = d.shear_offset(), "flow"_a = d.flow(),
-                             "gradient"_a = d.gradient());
+                             "gradient"_a = d.gradient(), "pressure_on"_a = d.servo().on,
+                             "pressure"_a = d.servo().pressure, "pressure_axis"_a = d.servo().axis,
+                             "pressure_gain"_a = d.servo().gain, "max_strain_rate"_a = d.servo().max_rate);
            })
       .def("images",
            [](const Sim& s) {

@@ -494,6 +494,9 @@ Simulation Simulation::load(std::istream& in) {
     moved[0] = b.real("moved");
     moved[1] = b.real("moved_near");
     moved[2] = b.real("skin");
+    const std::vector<std::int64_t> servo = b.integers("servo", 2);
+    const std::vector<double> values = b.reals("servo_values", 3);
+    if (servo[0]) s.set_pressure(values[0], static_cast<int>(servo[1]), values[1], values[2]);
     b.finish();
   }
 

@@ -62,17 +62,30 @@ void Domain::update_ghosts(ParticleStore& p, std::size_t n) const {
   double* x = p.x.data();
   double* v = p.v.data();
   double* w = p.w.data();
-  const double slide = offset_, speed = rate_ * length()[gradient_];
+  const Vec3 L = length();
+  const double slide = offset_, speed = rate_ * L[gradient_];
   for (std::size_t q = 0; q < g; ++q) {
     const std::size_t s = static_cast<std::size_t>(source_[q]), j = n + q;
     for (int d = 0; d < 3; ++d) {
-      x[3 * j + d] = x[3 * s + d] + shift_[3 * q + d];
+      x[3 * j + d] = x[3 * s + d] + image_[3 * q + d] * L[d];
       v[3 * j + d] = v[3 * s + d];
       w[3 * j + d] = w[3 * s + d];
     }
     x[3 * j + flow_] += slide_[q] * slide;
     v[3 * j + flow_] += slide_[q] * speed;
   }
+}
+
+double Domain::stretch(ParticleStore& p, std::size_t n, double rate, double dt) {
+  const int a = servo_.axis;
+  const double before = hi_[a] - lo_[a], factor = rate * dt;
+  hi_[a] = lo_[a] + before * (1 + factor);
+  double* x = p.x.data();
+  for (std::size_t k = 0; k < n; ++k) x[3 * k + a] += factor * (x[3 * k + a] - lo_[a]);
+  // The stretch moves two spheres (or a sphere and an image) apart by factor x their separation
+  // along the axis (the images' shifts stretch too): at most factor x the ghosts' reach for any
+  // listed pair.
+  return std::abs(factor) * reach_;
 }
 
 }  // namespace tsubu

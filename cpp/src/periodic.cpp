@@ -106,6 +106,60 @@ void Simulation::get_unwrapped_positions(double* out) const {
   }
 }
 
+void Simulation::set_pressure(double pressure, int axis, double gain, double max_rate) {
+  if (running()) throw std::logic_error("tsubu: Simulation::set_pressure during a run");
+  require(axis >= 0 && axis < 3, "pressure: axis must be 0, 1 or 2");
+  require(domain_.periodic(axis), [&] {
+    return std::string("pressure: the box must be periodic along the controlled axis ") + kAxis[axis] +
+           ": call set_box first";
+  });
+  require(std::isfinite(pressure) && pressure > 0, "pressure must be > 0, got " + fmt(pressure));
+  require(std::isfinite(gain) && gain > 0, "pressure gain must be > 0, got " + fmt(gain));
+  require(std::isfinite(max_rate) && max_rate > 0, "max_strain_rate must be > 0, got " + fmt(max_rate));
+  Domain::Servo s;
+  s.on = true;
+  s.axis = axis;
+  s.pressure = pressure;
+  s.gain = gain;
+  s.max_rate = max_rate;
+  domain_.set_servo(s);
+  energy_ref_valid_ = false;
+}
+
+void Simulation::clear_pressure() {
+  if (running()) throw std::logic_error("tsubu: Simulation::clear_pressure during a run");
+  domain_.set_servo(Domain::Servo{});
+}
+
+double Simulation::box_pressure(int a) const {
+  const ParticleStore& p = particles_.arrays();
+  const std::size_t n = particles_.size();
+  const Vec3 L = domain_.length();
+  const double* x = p.x.data();
+  const double* f = contacts_.pairs.force.data();
+  const bool contacts = lists_.built(n) && contacts_.pairs.force.size() >= 3 * lists_.near_partner.size() &&
+                        contacts_.pairs.touch.size() >= lists_.near_partner.size();
+  // The mean flow of a Lees–Edwards box, if the axis is its flow: u = rate (x_g - centre).
+  const bool streaming = domain_.sheared() && a == domain_.flow();
+  const int g = domain_.gradient();
+  const double centre = 0.5 * (domain_.lower()[g] + domain_.upper()[g]);
+  double sum = 0;
+  particles_.for_each_id([&](Id, Index i) {  // (id order: the same bits whatever the lists)
+    const double v = p.v[3 * i + a] - (streaming ? domain_.shear_rate() * (x[3 * i + g] - centre) : 0.0);
+    sum += p.mass[i] * v * v;
+    if (!contacts) return;
+    for (Index q = lists_.near_offset[i]; q < lists_.near_offset[i + 1]; ++q)
+      if (contacts_.pairs.touch[q]) sum += f[3 * q + a] * (x[3 * i + a] - x[3 * lists_.near_partner[q] + a]);
+  });
+  return sum / (L[0] * L[1] * L[2]);
+}
+
+void Simulation::steer_box() {
+  const Domain::Servo& s = domain_.servo();
+  const double rate = std::clamp(s.gain * (box_pressure(s.axis) - s.pressure), -s.max_rate, s.max_rate);
+  lists_.book_moved(domain_.stretch(particles_.arrays(), particles_.size(), rate, run_.dt));
+}
+
 void Simulation::save_periodic(archive::Writer& w) const {
   const Vec3 lo = domain_.lower(), hi = domain_.upper();
   w.reals("lower", {lo[0], lo[1], lo[2]});
@@ -129,6 +183,9 @@ void Simulation::save_periodic(archive::Writer& w) const {
   w.real("moved", lists_.moved);
   w.real("moved_near", lists_.moved_near);
   w.real("skin", lists_.skin);
+  const Domain::Servo& servo = domain_.servo();
+  w.integers("servo", {servo.on, servo.axis});
+  w.reals("servo_values", {servo.pressure, servo.gain, servo.max_rate});
 }
 
 void Simulation::restore_periodic(archive::Reader& r) {

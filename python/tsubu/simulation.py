@@ -153,6 +153,10 @@ class Box:
         How far the images across the gradient faces have slid along the flow [m].
     flow, gradient : str or None
         The shear's axes (None without shear).
+    pressure : float or None
+        The target normal stress of a pressure-controlled box [Pa] (None without control).
+    pressure_axis : str or None
+        The axis whose length it controls.
     """
 
     lower: np.ndarray
@@ -162,6 +166,8 @@ class Box:
     shear_offset: float = 0.0
     flow: str | None = None
     gradient: str | None = None
+    pressure: float | None = None
+    pressure_axis: str | None = None
 
     @property
     def lengths(self) -> np.ndarray:
@@ -958,6 +964,62 @@ class Simulation:
                              f"gradient ({gradient!r}) axes; call set_box first")
         self._core.set_shear(r, f, g)
 
+    def set_pressure(self, pressure: float, gain: float, axis: str = "z",
+                     max_strain_rate: float | None = None) -> None:
+        """Pressure control: the box's length along ``axis`` follows a target normal stress,
+        so that a sheared cell runs at constant pressure (mu(I) rheology). After every step the
+        box stretches about its lower face, the spheres with it (affinely), at the strain rate
+
+            d ln L / dt = gain * (P - pressure),  capped at +/- max_strain_rate,
+
+        where P is the normal stress along ``axis`` (compression positive): the spheres'
+        kinetic part (velocities less the Lees-Edwards mean flow) plus their contacts' virial,
+        over the box volume. A pack answers a strain with a stress change K x strain (K ~ kn / d
+        for a linear law of stiffness kn and diameter d): the box then relaxes toward the target
+        with the time constant 1 / (K gain). Keep that well above the time a stress wave takes
+        to cross the box (~ (L / d) contact durations): gain = d / (kn * 20 * (L / d) * t_c) is
+        a safe start (t_c = :meth:`contact_duration`); a larger gain overshoots and oscillates.
+
+        Parameters
+        ----------
+        pressure : float
+            Target normal stress [Pa], > 0.
+        gain : float
+            [1 / (Pa s)], > 0 (see above).
+        axis : str
+            The controlled axis, periodic (default ``"z"``, the gradient of a default shear).
+        max_strain_rate : float, optional
+            Cap on |d ln L / dt| [1/s]. Default: 0.01 / :meth:`contact_duration`.
+
+        Raises
+        ------
+        ValueError
+            For a non-positive or non-finite value, or an axis that is not periodic.
+        """
+        p = _checks.positive("pressure", pressure)
+        k = _checks.positive("gain", gain)
+        a = _axis("axis", axis)
+        box = self.box
+        if box is None or "xyz"[a] not in box.periodic:
+            raise ValueError(f"set_pressure: the box must be periodic along axis {axis!r}; call set_box first")
+        if max_strain_rate is None:
+            rate = 0.01 / self.contact_duration()
+        else:
+            rate = _checks.positive("max_strain_rate", max_strain_rate)
+        self._core.set_pressure(p, a, k, rate)
+
+    def clear_pressure(self) -> None:
+        """End pressure control: the box keeps the length it has."""
+        self._core.clear_pressure()
+
+    def box_pressure(self, axis: str = "z") -> float:
+        """The normal stress along ``axis`` [Pa], compression positive, as the pressure control
+        measures it (kinetic part less the mean shear flow, plus the contacts' virial, over the
+        box volume; the contacts of the last step)."""
+        if self.box is None:
+            raise ValueError("box_pressure needs a periodic box (set_box)")
+        return float(self._core.box_pressure(_axis("axis", axis)))
+
     @property
     def box(self) -> "Box | None":
         """The periodic box (:class:`tsubu.Box`), or None for an open scene."""
@@ -965,11 +1027,14 @@ class Simulation:
         axes = "".join(a for a, p in zip("xyz", b["periodic"]) if p)
         if not axes:
             return None
+        flow_length = b["upper"][b["flow"]] - b["lower"][b["flow"]]
         return Box(lower=np.array(b["lower"]), upper=np.array(b["upper"]), periodic=axes,
                    shear_rate=b["shear_rate"] if b["sheared"] else 0.0,
-                   shear_offset=b["shear_offset"] if b["sheared"] else 0.0,
+                   shear_offset=math.fmod(b["shear_offset"], flow_length) if b["sheared"] else 0.0,
                    flow="xyz"[b["flow"]] if b["sheared"] else None,
-                   gradient="xyz"[b["gradient"]] if b["sheared"] else None)
+                   gradient="xyz"[b["gradient"]] if b["sheared"] else None,
+                   pressure=b["pressure"] if b["pressure_on"] else None,
+                   pressure_axis="xyz"[b["pressure_axis"]] if b["pressure_on"] else None)
 
     @property
     def images(self) -> np.ndarray:

@@ -87,9 +87,23 @@ class Domain {
   }
   void clear_ghosts() {
     source_.clear();
-    shift_.clear();
+    image_.clear();
     slide_.clear();
   }
+
+  // ---- a pressure-controlled box ---------------------------------------------------------
+  // The length along `axis` follows a target normal stress (compression positive): the box
+  // stretches at the strain rate gain x (P_axis - pressure), at most max_rate in magnitude.
+  struct Servo {
+    bool on = false;
+    int axis = 2;
+    double pressure = 0, gain = 0, max_rate = 0;
+  };
+  void set_servo(const Servo& s) { servo_ = s; }
+  const Servo& servo() const { return servo_; }
+  // Stretches the box along the servo axis by the factor 1 + rate dt about its lower face, the
+  // n owned spheres with it (affinely); returns how far any sphere or image moved (a bound).
+  double stretch(ParticleStore& p, std::size_t n, double rate, double dt);
 
   // The position of owned row k as if it had never been wrapped.
   template <class X>
@@ -116,17 +130,20 @@ class Domain {
   Vec3 lo_ = Vec3::Zero(), hi_ = Vec3::Zero();
   double rate_ = 0, offset_ = 0;
   int flow_ = 0, gradient_ = 2;
-  // Per ghost: its source's row, its fixed shift, and its image along the gradient (-1, 0, 1:
-  // how many slides it takes).
+  // Per ghost: its source's row, its image (box lengths along each axis), and its image along
+  // the gradient (-1, 0, 1: how many slides it takes).
   Array<Index> source_;
-  Array<double> shift_;
+  Array<std::int8_t> image_;
   Array<std::int8_t> slide_;
+  Servo servo_;
+  double reach_ = 0;  // the ghosts' margin at the last make_ghosts
 };
 
 template <class Key>
 void Domain::make_ghosts(ParticleStore& p, std::size_t n, double margin, Key&& key) {
   clear_ghosts();
   if (!any_) return;
+  reach_ = margin;
   const Vec3 L = length();
   // Each owned sphere's images within `margin` of the box: offsets -1, 0, 1 along each periodic
   // axis; across the sheared faces the flow coordinate first slides, then takes any image of
@@ -134,7 +151,7 @@ void Domain::make_ghosts(ParticleStore& p, std::size_t n, double margin, Key&& k
   struct Ghost {
     std::uint64_t key;
     Index source;
-    std::array<double, 3> shift;
+    std::array<std::int8_t, 3> image;
     std::int8_t slide;
   };
   std::vector<Ghost> made;
@@ -144,6 +161,10 @@ void Domain::make_ghosts(ParticleStore& p, std::size_t n, double margin, Key&& k
     return true;
   };
   const int span[3] = {periodic_[0] ? 1 : 0, periodic_[1] ? 1 : 0, periodic_[2] ? 1 : 0};
+  auto images = [](const int* c) {
+    return std::array<std::int8_t, 3>{static_cast<std::int8_t>(c[0]), static_cast<std::int8_t>(c[1]),
+                                      static_cast<std::int8_t>(c[2])};
+  };
   for (std::size_t k = 0; k < n; ++k) {
     const Vec3 x = vec3(p.x.data(), k);
     for (int c2 = -span[2]; c2 <= span[2]; ++c2)
@@ -156,29 +177,26 @@ void Domain::make_ghosts(ParticleStore& p, std::size_t n, double margin, Key&& k
             if (c[flow_] != 0) continue;
             const double slid = s * offset_;
             for (int a = -2; a <= 1; ++a) {
-              Vec3 t = shift;
-              t[flow_] += a * L[flow_];
-              const Vec3 y = x + t;
-              Vec3 ys = y;
+              c[flow_] = a;
+              Vec3 ys = x + Vec3(c[0] * L[0], c[1] * L[1], c[2] * L[2]);
               ys[flow_] += slid;
-              if (inside(ys)) made.push_back({key(ys), static_cast<Index>(k), {t[0], t[1], t[2]},
-                                              static_cast<std::int8_t>(s)});
+              if (inside(ys)) made.push_back({key(ys), static_cast<Index>(k), images(c), static_cast<std::int8_t>(s)});
             }
             continue;
           }
           if (c0 == 0 && c1 == 0 && c2 == 0) continue;
           const Vec3 y = x + shift;
-          if (inside(y)) made.push_back({key(y), static_cast<Index>(k), {shift[0], shift[1], shift[2]}, 0});
+          if (inside(y)) made.push_back({key(y), static_cast<Index>(k), images(c), 0});
         }
   }
   std::stable_sort(made.begin(), made.end(), [](const Ghost& a, const Ghost& b) { return a.key < b.key; });
   const std::size_t g = made.size();
   source_.resize(g);
-  shift_.resize(3 * g);
+  image_.resize(3 * g);
   slide_.resize(g);
   for (std::size_t q = 0; q < g; ++q) {
     source_[q] = made[q].source;
-    for (int d = 0; d < 3; ++d) shift_[3 * q + d] = made[q].shift[d];
+    for (int d = 0; d < 3; ++d) image_[3 * q + d] = made[q].image[d];
     slide_[q] = made[q].slide;
   }
   // The ghost rows: copies of their sources, then moved into place.

@@ -121,8 +121,8 @@ class NeighborList {
   // carrying anything, and returns; the caller fills the entries, then calls finish_restore().
   void rebuild_empty(const Context& c, double skin, bool wrap = true);
   // How deep the ghosts' layer is: a pair's reach (the cell side h = 2 r_max + skin) beyond
-  // spheres that may have left the box by up to skin/2 since it was wrapped.
-  static double ghost_margin(double h, double skin) { return h + skin; }
+  // spheres that may stand up to skin/2 outside the box (wrapped at the last rebuild).
+  static double ghost_margin(double h, double skin) { return h + 0.5 * skin; }
   void finish_restore(const Context& c);
 
   // The Verlet list's pairs as ids, lower first, sorted.

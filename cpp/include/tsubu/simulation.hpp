@@ -116,6 +116,13 @@ class Simulation : private detail::RunHooks {
   // Per sphere in id order: the images crossed (3 each), the unwrapped position (3 each).
   void get_images(std::int64_t* out) const;
   void get_unwrapped_positions(double* out) const;
+  // A pressure-controlled box (Domain::Servo): the length along `axis` follows `pressure` (Pa,
+  // compression positive) at the strain rate gain (P - pressure), capped at max_rate (1/s).
+  void set_pressure(double pressure, int axis, double gain, double max_rate);
+  void clear_pressure();
+  // The normal stress along `axis` (compression positive, Pa): the spheres' kinetic part and
+  // their contacts' virial over the box volume, in id order.
+  double box_pressure(int axis) const;
   // Takes a wall out: from the next run on it touches nothing; its contacts end (their energy
   // leaves with them); other walls keep their indices.
   void remove_wall(int wall);
@@ -393,6 +400,7 @@ class Simulation : private detail::RunHooks {
     check_energy(energy_ref_);
   }
   void steer_walls() override;
+  void steer_box() override;
   [[noreturn]] void report_overlap(double dt) const override;
   [[noreturn]] void report_nonfinite() const override;
   [[noreturn]] void report_nonfinite_velocity() const override;

@@ -31,7 +31,8 @@ struct Stepper {
     const bool moving = s.walls.moving();
     // Fixed spheres with a prescribed motion work on the scene as a moving wall does.
     // So does a Lees–Edwards box.
-    const bool driven = moving || (s.fixed && s.fixed->moving()) || s.domain.shear_rate() != 0;
+    const bool driven = moving || (s.fixed && s.fixed->moving()) || s.domain.shear_rate() != 0 ||
+                        s.domain.servo().on;
     const bool periodic = s.domain.periodic();
     PhaseTimer clock(run.phase_seconds);
     // With fixed walls no energy enters the scene: the balance is checked every kEnergyCheck
@@ -78,14 +79,16 @@ struct Stepper {
                 : PP::run(pv, vmax2);
       if (s.fixed) vmax2 = std::max(vmax2, s.fixed->after(s.particles, dt));
       run.last_move = std::sqrt(vmax2) * dt;  // the distance any particle moved: dt max|v|
-      // (A Lees–Edwards image also moves at the slide's speed.)
-      lists.book_moved(periodic ? run.last_move + dt * s.domain.shear_speed() : run.last_move);
+      // (A Lees–Edwards image also moves at the slide's speed: a pair across the sheared faces
+      // closes by at most 2 moved + slide, so each sphere books half the slide.)
+      lists.book_moved(periodic ? run.last_move + 0.5 * dt * s.domain.shear_speed() : run.last_move);
       if (nonfinite) s.hooks.report_nonfinite_velocity();
       if (moving) {
         if (s.walls.servoed()) s.hooks.steer_walls();
         s.walls.advance(dt);
       }
       if (periodic) {
+        if (s.domain.servo().on) s.hooks.steer_box();
         s.domain.advance(dt);
         s.domain.update_ghosts(s.particles.arrays(), s.particles.size());
       }

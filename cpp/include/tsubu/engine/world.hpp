@@ -71,6 +71,8 @@ class RunHooks {
   virtual void audit() = 0;
   // Sets the velocity of each servo wall from the force its contacts just put on it.
   virtual void steer_walls() = 0;
+  // A pressure-controlled periodic box: stretches it toward its target stress (after a step).
+  virtual void steer_box() {}
   // Raise InstabilityError naming the step and the particle.
   [[noreturn]] virtual void report_overlap(double dt) const = 0;
   [[noreturn]] virtual void report_nonfinite() const = 0;
