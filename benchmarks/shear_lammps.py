@@ -10,15 +10,20 @@ The scene (SI units):
   Coulomb rule ``slip_rule="truncate"`` (LAMMPS's: the trial spring force rescaled to the cap, the
   history truncated to match); no gravity;
 * the cell: a cube of side L = 20.6 d, periodic along x, y and z, solid fraction 0.6 (``--phi``),
-  sheared by Lees-Edwards images: flow along x, gradient along z, rate ``RATE`` = 6 /s (``--rate``;
+  sheared by Lees-Edwards images: flow along x, gradient along z, rate ``RATE`` = 15 /s (``--rate``;
   the images across the z faces slide along x at RATE * L);
 * time step: tsubu's default (t_c / 50 of the pair contact), neighbour skin 0.2 d in both codes.
 
 Why that rate: the inertial number I = RATE d / sqrt(p / rho) should be ~1e-2 (the dense,
-quasi-static-to-inertial crossover of mu(I), GDR MiDi 2004). At a fixed solid fraction of 0.6,
-above the jamming fraction of mu = 0.5 spheres (~0.58, Chialvo, Sun & Sundaresan 2012), the
-pressure is set by the contacts' stiffness; LAMMPS measured p ~ 14 Pa ... (see docs/benchmarks.md)
-at 6 /s, which gives I ~ 1e-2 (the script prints the I of each run from its own mean pressure).
+quasi-static-to-inertial crossover of mu(I), GDR MiDi 2004). The cell starts from an unjammed
+packing (frictionless relaxation, below), and at a fixed solid fraction of 0.6, above the jamming
+fraction of mu = 0.5 spheres (~0.58-0.59, Chialvo, Sun & Sundaresan 2012), shearing jams it: in one
+LAMMPS run at 6 /s the pressure stayed below 100 Pa up to a strain of 0.09, rose from 0.1 to 20 kPa
+between strains 0.1 and 0.3 and levelled off near 21 kPa (tau ~ 9 kPa, mu ~ 0.43) at 0.33-0.35. In
+that shear-jammed state p is set by the stiffness (kn / (p d) ~ 240), not by the rate, so
+I = 6 x 0.002 / sqrt(21000 / 2500) = 4e-3 at 6 /s, and 15 /s gives I ~ 1e-2. The start-up before
+jamming (the default 4,000 steps reach a strain of 0.09) is far more inertial (I ~ 0.07 over
+steps 2000-4000 at 15 /s); ``--steps 20000`` (strain 0.44) reaches the jammed state.
 
 The initial state (the same for both codes, built once and cached in ``--workdir``):
 ``tsubu.fill.random_packing`` places the spheres at solid fraction 0.3 in the cube (random
@@ -46,7 +51,7 @@ gradient="z")``, ``--warmup`` untimed steps (the same set-up work as LAMMPS's), 
 steps timed with ``time.perf_counter`` in runs of ``--every`` steps, each followed by
 ``sim.stress()`` (Cauchy, tension positive, kinetic part with the mean flow removed); its contact
 part, sigma + (1/V) sum_i m_i v'_i v'_i with v' = v - RATE (z - z_centre) e_x, is what is compared
-with LAMMPS's virial, and the kinetic part is reported too (it is ~1e-4 of p here). Without
+with LAMMPS's virial, and the kinetic part is recorded in the JSON too. Without
 ``Simulation.stress`` the script says so and reports tsubu's speed only. Without
 ``Simulation.set_box`` (the periodic boxes of issue 28) it says so and runs LAMMPS alone.
 
@@ -102,7 +107,7 @@ SKIN = 0.2 * D                   # neighbour skin [m]
 MASS = RHO * 4.0 / 3.0 * math.pi * R ** 3
 N_DEFAULT = 10000
 PHI = 0.6                        # solid fraction of the cell
-RATE = 6.0                       # shear rate [1/s]: I ~ 1e-2 at the pressure it gives (docstring)
+RATE = 15.0                      # shear rate [1/s]: I ~ 1e-2 in the shear-jammed state (docstring)
 STEPS_DEFAULT = 4000
 EVERY_DEFAULT = 50
 RSA_PHI = 0.3                    # random sequential addition's solid fraction (it jams near 0.38)
