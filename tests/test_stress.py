@@ -182,6 +182,15 @@ def test_a_periodic_box_gives_the_volume_and_a_contact_across_a_face_counts_once
     assert np.array_equal(sigma, across.stress(volume=across.box.volume))
     np.testing.assert_allclose(sigma, inside.stress(), rtol=1e-9, atol=0)
     assert sigma[0, 0] < 0 and abs(sigma[1, 1]) < 1e-12 * abs(sigma[0, 0])
+    # The pair's term is -b (x) f, b = x_i - x_j the minimum image across the face.
+    c = across.contacts()
+    ids = across.ids
+    xi, xj = (across.positions[np.searchsorted(ids, c[k][0])] for k in ("i", "j"))
+    b = xi - xj
+    b -= L * np.round(b / L)
+    assert abs(b[0]) < 0.002
+    np.testing.assert_allclose(sigma * L ** 3 - kinetic(across), -np.outer(b, c["force"][0]),
+                               rtol=0, atol=1e-9 * abs(sigma[0, 0]) * L ** 3)
     np.testing.assert_allclose(across.stress(per_particle=True).sum(axis=0), sigma * L ** 3, rtol=1e-12)
 
 

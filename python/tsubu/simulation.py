@@ -897,7 +897,23 @@ class Simulation:
 
     def pressure(self, volume=None) -> float:
         """The mean normal stress [Pa], compression positive: p = -trace(sigma) / 3 with sigma
-        :meth:`stress` (same ``volume``, same default)."""
+        :meth:`stress`.
+
+        Parameters
+        ----------
+        volume : float, optional
+            The volume [m^3], > 0, as for :meth:`stress` (default None: the periodic box's).
+
+        Returns
+        -------
+        float
+            The pressure [Pa] (positive in a compressed pack).
+
+        Raises
+        ------
+        TypeError, ValueError
+            As :meth:`stress` for the volume.
+        """
         return float(-np.trace(self.stress(volume)) / 3.0)
 
     def set_plane_motion(self, wall: int, velocity=None, angular_velocity=None) -> None:
