@@ -131,6 +131,26 @@ Sim::ContactState contact_state_from(const py::dict& d) {
   return c;
 }
 
+// ---- stress (stress.cpp): sigma (3, 3) and, if asked, each sphere's sigma V (N, 3, 3).
+py::tuple stress_arrays(const Sim& s, double volume, double rate, int flow, int gradient,
+                        double reference, bool per_particle) {
+  Array sigma({py::ssize_t(3), py::ssize_t(3)});
+  py::object per = py::none();
+  double* per_data = nullptr;
+  if (per_particle) {
+    Array a({static_cast<py::ssize_t>(s.size()), py::ssize_t(3), py::ssize_t(3)});
+    per_data = a.mutable_data();
+    per = a;
+  }
+  Sim::MeanFlow mean;
+  mean.rate = rate;
+  mean.flow = flow;
+  mean.gradient = gradient;
+  mean.reference = reference;
+  s.stress(volume, mean, sigma.mutable_data(), per_data);
+  return py::make_tuple(sigma, per);
+}
+
 }  // namespace
 
 void register_state(py::class_<Sim>& cls) {
@@ -161,6 +181,8 @@ void register_state(py::class_<Sim>& cls) {
           },
           "at_positions"_a = false)
       .def("contacts", &contacts_dict)
+      .def("stress", &stress_arrays, "volume"_a, "rate"_a = 0.0, "flow"_a = 0, "gradient"_a = 2,
+           "reference"_a = 0.0, "per_particle"_a = false)
       .def("rebuild_neighbors", &Sim::rebuild_neighbors)
       .def("neighbor_pairs",
            [](const Sim& s) {

@@ -210,9 +210,7 @@ std::vector<ContactInfo> Simulation::contacts() const {
       out.push_back({particles_.arrays().id[i], -1, lists_.wall_index[e], lists_.wall_element[e], contacts_.walls.overlap[e], vec3(contacts_.walls.force.data(), e),
                      torque(contacts_.walls.nxft, contacts_.walls.roll, particles_.arrays().radius[i], contacts_.walls.overlap[e], e),
                      history(contacts_.walls.xi, e), r[i], size(contacts_.walls.xi, e)});
-      const Plane& P = wall_plane_now(e);
-      const Vec3 x = vec3(particles_.arrays().x.data(), i);
-      out.back().wall_point = x - P.distance(x) * P.normal;
+      out.back().wall_point = wall_point_now(Index(i), e);
     }
   }
   std::sort(out.begin(), out.end(), [](const ContactInfo& a, const ContactInfo& b) {

@@ -840,6 +840,88 @@ class Simulation:
         """
         return _read_only(self._core.wall_loads()[1])
 
+    # ---- stress (stress.cpp, docs/stress.md) --------------------------------------------------
+
+    def stress(self, volume=None, per_particle: bool = False) -> np.ndarray:
+        """The Cauchy stress of the spheres (Love-Weber), as the last step evaluated its contacts.
+
+        sigma = (1/V) sum_i [ -m_i v'_i (x) v'_i + sum_{c of i} (x_c - x_i) (x) f_c ],
+
+        with f_c each contact force on sphere i (:meth:`contacts`: a pair's partner gets -f),
+        x_c its contact point (a pair's on the line of centres, splitting it at the levers'
+        ratio (r_i - overlap/2) : (r_j - overlap/2); a wall's ``wall_point``), and v' = v - u(x)
+        the velocity relative to the mean flow u: in a Lees-Edwards box (:meth:`set_shear`) u =
+        rate (x_gradient - centre_gradient) along the flow, else 0. Tension is positive: a
+        compressed pack has a negative diagonal (:meth:`pressure` is minus its mean). Periodic
+        images count through their source spheres, with the minimum-image branch vector.
+
+        Parameters
+        ----------
+        volume : float, optional
+            The volume V [m^3] the sum is divided by, > 0. Default None: the periodic box's
+            (:attr:`box`, ``box.volume``); a scene without a box needs it explicitly (the
+            volume the walls enclose).
+        per_particle : bool
+            If True, return each sphere's bracket instead: sigma_i V [N m] (stress times
+            volume, not divided by V), in id order, whose sum over the spheres is
+            ``stress(volume) * volume`` to round-off (for coarse-graining). ``volume`` is then
+            not needed (validated if given).
+
+        Returns
+        -------
+        numpy.ndarray
+            Shape (3, 3) [Pa], or (N, 3, 3) [N m] with ``per_particle``; a read-only copy. The
+            contact part of a static pack without rolling resistance is symmetric to the
+            residual of the force balance; the kinetic part always is.
+
+        Raises
+        ------
+        TypeError
+            For a volume that is not a number, or per_particle that is not a bool.
+        ValueError
+            For a volume that is not finite and positive, or None in a scene without a box.
+        """
+        if not isinstance(per_particle, (bool, np.bool_)):
+            raise TypeError(f"per_particle must be True or False, got {per_particle!r}")
+        box = getattr(self, "box", None)
+        if volume is not None:
+            volume = _checks.positive("volume", volume)
+        elif box is not None:
+            volume = float(box.volume)
+        elif per_particle:
+            volume = 1.0  # (the brackets do not depend on it)
+        else:
+            raise ValueError("stress: volume=None needs a periodic box (set_box); a walled or open "
+                             "scene needs an explicit volume [m^3], e.g. the volume its walls enclose")
+        rate, flow, gradient, reference = 0.0, 0, 2, 0.0
+        if box is not None and box.shear_rate and box.flow is not None:
+            flow, gradient = "xyz".index(box.flow), "xyz".index(box.gradient)
+            rate = float(box.shear_rate)
+            reference = 0.5 * float(box.lower[gradient] + box.upper[gradient])
+        sigma, per = self._core.stress(volume, rate, flow, gradient, reference, bool(per_particle))
+        return _read_only(per if per_particle else sigma)
+
+    def pressure(self, volume=None) -> float:
+        """The mean normal stress [Pa], compression positive: p = -trace(sigma) / 3 with sigma
+        :meth:`stress`.
+
+        Parameters
+        ----------
+        volume : float, optional
+            The volume [m^3], > 0, as for :meth:`stress` (default None: the periodic box's).
+
+        Returns
+        -------
+        float
+            The pressure [Pa] (positive in a compressed pack).
+
+        Raises
+        ------
+        TypeError, ValueError
+            As :meth:`stress` for the volume.
+        """
+        return float(-np.trace(self.stress(volume)) / 3.0)
+
     def set_plane_motion(self, wall: int, velocity=None, angular_velocity=None) -> None:
         """Change a wall's velocity and/or angular velocity (from the next step on).
 

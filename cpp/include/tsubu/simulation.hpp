@@ -377,6 +377,25 @@ class Simulation : private detail::RunHooks {
   const std::array<double, int(Phase::Count)>& phase_seconds() const { return run_.phase_seconds; }
   double skin() const;
 
+  // ---- stress (stress.cpp, docs/stress.md) -------------------------------------------------
+  // The mean flow the kinetic part of the stress subtracts: u[flow] = rate (x[gradient] -
+  // reference), the other components 0 (Lees–Edwards: the box's rate and axes, reference its
+  // centre along the gradient).
+  struct MeanFlow {
+    double rate = 0;  // 1/s
+    int flow = 0, gradient = 2;
+    double reference = 0;  // m
+  };
+  // The Love–Weber Cauchy stress of the owned spheres in `volume` (m^3), tension positive:
+  //   sigma = (1/V) sum_i [ -m_i v'_i (x) v'_i + sum_{c of i} (x_c - x_i) (x) f_c ],
+  // v' = v - u(x), f_c the contact forces of the last step (forces()), x_c each contact's point
+  // (a pair's splits the branch vector x_i - x_j at c_i / (c_i + c_j), c = r - overlap / 2, the
+  // law's lever; a wall's is ContactInfo::wall_point). Row-major 3x3 into `sigma` (9 values);
+  // `per_particle` (may be null): each sphere's bracket, sigma V, in N m, 9 values per sphere
+  // in id order, which sum (in id order) to sigma V. Serial: the same bits for any thread
+  // count. Throws InvalidArgument for a volume that is not finite and positive or bad axes.
+  void stress(double volume, const MeanFlow& flow, double* sigma, double* per_particle = nullptr) const;
+
  private:
   // ---- RunHooks: what the loop asks between passes (engine/world.hpp) -----------------------
   // Whether the run must end before its next step: a stop was requested, or the poll (called
@@ -471,6 +490,13 @@ class Simulation : private detail::RunHooks {
   // contact's tangent plane, hidden ones clear of the sphere: Walls::measure).
   const Plane& wall_plane_now(Index e) const {
     return walls_.has_meshes() ? wall_planes_[std::size_t(e)] : walls_.plane(lists_.wall_index[std::size_t(e)]);
+  }
+  // A near-wall entry's contact point: the point of its plane now nearest sphere i's centre
+  // (ContactInfo::wall_point, the stress' x_c; after measure_walls_now).
+  Vec3 wall_point_now(Index i, Index e) const {
+    const Plane& P = wall_plane_now(e);
+    const Vec3 x = vec3(particles_.arrays().x.data(), i);
+    return x - P.distance(x) * P.normal;
   }
   // Measures them (with meshes only) at the positions x (3 N, internal order; default the
   // spheres'); call before wall_plane_now.
