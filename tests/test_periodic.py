@@ -152,3 +152,66 @@ def test_an_open_scene_has_no_box_and_zero_images():
     assert sim.box is None
     np.testing.assert_array_equal(sim.images, np.zeros((8, 3)))
     np.testing.assert_array_equal(sim.unwrapped_positions, sim.positions)
+
+
+def squeezed_lattice():
+    """512 spheres on a simple cubic lattice 0.5 % closer than touching, in a periodic cube: each
+    of the 512 z-pairs carries f = kn delta, so the normal stress along z is
+    P_zz = 512 f (2 R - delta) / L^3 (Love-Weber, the contacts' virial)."""
+    spacing = 1.99e-3
+    length = 8 * spacing
+    sim = tsubu.Simulation(gravity=(0, 0, 0))
+    sim.add_spheres(lattice(8, length), R, frictional())
+    sim.set_box((0, 0, 0), (length,) * 3, "xyz")
+    return sim, length, spacing
+
+
+def test_the_box_pressure_of_a_squeezed_lattice_is_the_virial_closed_form():
+    sim, length, spacing = squeezed_lattice()
+    sim.run(steps=1)
+    delta = 2 * R - spacing
+    expected = 512 * (1e4 * delta) * spacing / length**3
+    assert sim.box_pressure("z") == pytest.approx(expected, rel=1e-3)
+    assert sim.box_pressure("z") == pytest.approx(-sim.stress()[2, 2], rel=1e-12)
+
+
+def test_a_pressure_controlled_box_relaxes_to_its_target():
+    # strain rate = gain (P - P*): first-order relaxation with time constant 1 / (K gain),
+    # K ~ kn / d (docs/periodic.md); from 25 kPa to 5 kPa in ~6 time constants.
+    sim, length, _ = squeezed_lattice()
+    d = 2 * R
+    gain = 4 * d / (1e4 * 20 * (length / d) * sim.contact_duration())
+    sim.set_pressure(5000.0, gain=gain)
+    assert sim.box.pressure == 5000.0 and sim.box.pressure_axis == "z"
+    sim.run(steps=15_000)
+    assert sim.box_pressure("z") == pytest.approx(5000.0, rel=0.01)
+    assert sim.box.lengths[2] > length  # it expanded
+    assert sim.box.lengths[0] == length  # only z
+
+
+def test_a_pressure_controlled_sheared_box_resumes_bit_for_bit(tmp_path):
+    a, length = sheared_cell()
+    d = 2 * R
+    a.set_pressure(100.0, gain=d / (1e4 * 20 * (length / d) * a.contact_duration()))
+    a.run(steps=5000)
+    b = tsubu.Simulation.load(a.save(tmp_path / "p.tsubu"))
+    a.run(steps=5000)
+    b.run(steps=5000)
+    np.testing.assert_array_equal(a.positions, b.positions)
+    np.testing.assert_array_equal(a.box.upper, b.box.upper)
+
+
+def test_bad_pressure_control_is_refused():
+    sim, _, _ = squeezed_lattice()
+    with pytest.raises(ValueError, match="pressure"):
+        sim.set_pressure(-1.0, gain=1e-5)
+    with pytest.raises(ValueError, match="gain"):
+        sim.set_pressure(1.0, gain=0.0)
+    with pytest.raises(ValueError, match="axis"):
+        sim.set_pressure(1.0, gain=1e-5, axis="w")
+    with pytest.raises(ValueError, match="max_strain_rate"):
+        sim.set_pressure(1.0, gain=1e-5, max_strain_rate=float("nan"))
+    open_scene = tsubu.Simulation()
+    open_scene.add_spheres(lattice(2, 0.02), R, elastic())
+    with pytest.raises(ValueError, match="set_box"):
+        open_scene.set_pressure(1.0, gain=1e-5)
