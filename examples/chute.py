@@ -114,8 +114,8 @@ def gravity(angle: float) -> tuple:
 
 def rough_base(lx: float, ly: float, seed: int, attempts: int = 4000) -> np.ndarray:
     """Centres (x, y) of a random monolayer of discs of diameter d in the periodic rectangle
-    lx x ly, by random sequential addition until no disc fits: darts in batches, then every
-    point of a grid (d/20) still farther than d from all centres is filled, in random order."""
+    lx x ly, by random sequential addition until no disc fits: random darts until `attempts`
+    in a row miss, then the points of a grid (d/20) that still have room, in random order."""
     d = DIAMETER
     rng = np.random.default_rng(seed)
     size = np.array([lx, ly])
@@ -184,9 +184,8 @@ def segment_volume(zc, r, z0: float, z1: float):
 
 
 def profiles(sim, fixed: int, edges: np.ndarray):
-    """v_x per slab (mean over the free spheres whose centre is in it; NaN if none) and the
-    solid fraction per slab (all spheres, the base's included), at this instant; and the
-    number of free spheres per slab."""
+    """Per slab between `edges`, at this instant: the sum of v_x over the free spheres whose
+    centre is in it, their number, and the solid fraction (all spheres, the base's included)."""
     x, r = sim.positions, sim.radii
     v = sim.velocities[fixed:, 0]
     z = x[fixed:, 2]

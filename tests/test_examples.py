@@ -315,3 +315,17 @@ def test_chute_base_leaves_no_room_for_a_sphere():
     gap -= np.round(gap / size) * size
     assert np.sqrt((gap ** 2).sum(-1)).min(1).max() < d
     assert 0.5 < len(c) * math.pi / 4 * d * d / (size[0] * size[1]) < 0.6
+
+
+def test_chute_steadiness_test_tells_a_plateau_from_a_rise():
+    """A kinetic energy flat within noise passes; one rising by 10 % over the window does not;
+    too short a record is never steady."""
+    module = load_example("chute")
+    tau, window = module.TAU, module.STEADY_WINDOW
+    t = np.arange(1, 121) * tau
+    noise = 0.01 * np.sin(np.arange(120) * 2.1)
+    assert module.steady(t, 3.0 + noise)[0]
+    rising = 3.0 * (1 + 0.1 * (t - t[-1] + window * tau) / (window * tau)) + noise
+    flat, change = module.steady(t, rising)
+    assert not flat and change == pytest.approx(0.1, rel=0.1)
+    assert not module.steady(t[:10], np.full(10, 3.0))[0]
