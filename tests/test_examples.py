@@ -246,3 +246,86 @@ def test_drum_surface_fit_finds_a_tilted_surface():
     assert abs(module.principal_angle(x, np.ones(len(x))) - 30) < 5
     assert math.isclose(module.segment_area(1.0, module.segment_level(1.0, 0.35)), 0.35 * math.pi,
                         rel_tol=1e-9)
+
+
+@pytest.mark.slow
+def test_chute_flows_down_the_incline_over_its_rough_base(tmp_path):
+    """The quick chute (a 6 d x 6 d periodic base, about 240 spheres, 24 and 26 degrees, 15 tau
+    each): the layer flows along x over the fixed base without a sphere getting through it,
+    faster at the top, with a dense bulk under a looser surface, and the Bagnold fit and the
+    figure come out of the written files."""
+    module = load_example("chute")
+    s = module.main(["--quick", "--no-figure", "--out", str(tmp_path)])
+    assert json.loads((tmp_path / "chute.json").read_text()) == s
+    assert [run["angle"] for run in s["runs"]] == [24.0, 26.0]
+    assert s["base_spheres"] > 0.5 * 36 / (math.pi / 4) and s["free_spheres"] > 200
+    for run in s["runs"]:
+        data = read_npz(tmp_path / f"chute_theta{run['angle']:g}.npz")
+        x, fixed = data["positions"], data["fixed"]
+        # The glued base stayed where it was (centres d/2 above the board); every free sphere
+        # is above the board and inside the periodic cell (wrapped, up to the lists' skin).
+        assert fixed.sum() == s["base_spheres"] and np.all(x[fixed, 2] == 0.5)
+        assert run["lowest_free_sphere"] > 0.45 and np.all(x[~fixed, 2] > 0.45)
+        assert np.all((x[:, :2] > -0.5) & (x[:, :2] < np.array(s["base"]) + 0.5))
+        # Downhill along x, none across: the mean v_y is noise next to v_x.
+        v = data["velocities"][~fixed]
+        assert run["mean_velocity"] > 0.3 and abs(v[:, 1].mean()) < 0.2 * run["mean_velocity"]
+        # Faster at the top than near the base; a dense bulk under the surface.
+        z, vx = data["z"], data["vx"]
+        near_base = vx[(z > 0) & (z < 1.5)]
+        near_top = vx[(z > run["surface_height"] - 2) & (z < run["surface_height"])]
+        assert np.nanmean(near_top) > 2 * np.nanmean(near_base) > 0
+        assert 0.5 < run["phi_bulk"] < 0.65 and 4 < run["surface_height"] < 8, run
+        assert data["phi"][z > run["surface_height"] + 1.5].max() < 0.5 * run["phi_bulk"]
+        assert run["bagnold_A"] > 0 and run["bagnold_residual"] < 0.25, run
+    draw_figure(module, tmp_path)
+
+
+def test_chute_bagnold_fit_recovers_the_profile():
+    """A Bagnold profile sampled in slabs (with a looser surface layer above h) gives back its
+    A with no residual; the surface is found where phi falls to half its bulk value."""
+    module = load_example("chute")
+    d = module.DIAMETER
+    z = (np.arange(40) + 0.5) * 0.5 * d - d
+    h = 12.3 * d
+    v = module.bagnold(z, 0.7, h)
+    a, residual = module.fit_bagnold(z, v, h)
+    assert math.isclose(a, 0.7, rel_tol=1e-12) and residual < 1e-12
+    phi = np.where(z < h, 0.58, 0.0)
+    phi[np.argmin(np.abs(z - h))] = 0.29  # the slab at the surface, half full
+    found, bulk = module.surface_and_bulk(z, phi)
+    assert bulk == pytest.approx(0.58) and abs(found - z[np.argmin(np.abs(z - h))]) < 0.26 * d
+
+
+def test_chute_base_leaves_no_room_for_a_sphere():
+    """The random monolayer of the base is saturated: no point of a grid over the periodic
+    rectangle is as far as d from every centre (no sphere fits on the board between them), and
+    no two discs overlap (across the faces too)."""
+    module = load_example("chute")
+    d = module.DIAMETER
+    size = np.array([7 * d, 5 * d])
+    c = module.rough_base(*size, seed=3)
+    gap = c[:, None] - c[None]
+    gap -= np.round(gap / size) * size
+    dist = np.sqrt((gap ** 2).sum(-1)) + np.eye(len(c)) * d
+    assert dist.min() >= d * (1 - 1e-12)
+    gx, gy = np.meshgrid(np.linspace(0, size[0], 141), np.linspace(0, size[1], 101))
+    p = np.column_stack([gx.ravel(), gy.ravel()])
+    gap = p[:, None] - c[None]
+    gap -= np.round(gap / size) * size
+    assert np.sqrt((gap ** 2).sum(-1)).min(1).max() < d
+    assert 0.5 < len(c) * math.pi / 4 * d * d / (size[0] * size[1]) < 0.6
+
+
+def test_chute_steadiness_test_tells_a_plateau_from_a_rise():
+    """A kinetic energy flat within noise passes; one rising by 10 % over the window does not;
+    too short a record is never steady."""
+    module = load_example("chute")
+    tau, window = module.TAU, module.STEADY_WINDOW
+    t = np.arange(1, 121) * tau
+    noise = 0.01 * np.sin(np.arange(120) * 2.1)
+    assert module.steady(t, 3.0 + noise)[0]
+    rising = 3.0 * (1 + 0.1 * (t - t[-1] + window * tau) / (window * tau)) + noise
+    flat, change = module.steady(t, rising)
+    assert not flat and change == pytest.approx(0.1, rel=0.1)
+    assert not module.steady(t[:10], np.full(10, 3.0))[0]
