@@ -102,7 +102,7 @@ def fingerprint(sim, skip_energy=()) -> str:
         h.update(np.ascontiguousarray(a, dtype=np.float64).tobytes())
     c = sim.contacts()
     for key in sorted(c):
-        if key in ("element", "wall_point"):  # (derived, and added with meshes: hashes stay comparable)
+        if key in ("element", "wall_point", "branch"):  # (derived, added later: hashes stay comparable)
             continue
         h.update(key.encode())
         h.update(np.ascontiguousarray(c[key]).tobytes())

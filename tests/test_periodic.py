@@ -215,3 +215,18 @@ def test_bad_pressure_control_is_refused():
     open_scene.add_spheres(lattice(2, 0.02), R, elastic())
     with pytest.raises(ValueError, match="set_box"):
         open_scene.set_pressure(1.0, gain=1e-5)
+
+
+def test_a_contact_across_a_face_is_drawn_to_the_nearest_image():
+    # Two spheres pressed together across the x face: the contact network's segment runs from
+    # one centre to the other's image just outside the box, one contact length long.
+    length = 0.02
+    sim = tsubu.Simulation(gravity=(0, 0, 0))
+    sim.add_spheres([[0.0005, 0.01, 0.01], [length - 0.00149, 0.01, 0.01]], R, elastic())
+    sim.set_box((0, 0, 0), (length,) * 3, "xyz")
+    sim.run(steps=1)
+    c = sim.contacts()
+    assert len(c["i"]) == 1
+    np.testing.assert_allclose(c["branch"][0], [-0.00199, 0, 0], atol=1e-7)
+    net = tsubu.output.contact_data(sim)
+    assert np.linalg.norm(net["end"][0] - net["start"][0]) == pytest.approx(0.00199, abs=1e-7)

@@ -30,7 +30,7 @@ py::dict contacts_dict(const Sim& s) {
   py::array_t<std::int64_t> i(m), j(m);
   py::array_t<int> wall(m), element(m);
   Array overlap(m);
-  Array force = new_n3(m), torque = new_n3(m), xi = new_n3(m), wall_point = new_n3(m);
+  Array force = new_n3(m), torque = new_n3(m), xi = new_n3(m), wall_point = new_n3(m), branch = new_n3(m);
   auto pi = i.mutable_unchecked<1>();
   auto pj = j.mutable_unchecked<1>();
   auto pw = wall.mutable_unchecked<1>();
@@ -40,6 +40,7 @@ py::dict contacts_dict(const Sim& s) {
   auto pt = torque.mutable_unchecked<2>();
   auto px = xi.mutable_unchecked<2>();
   auto pp = wall_point.mutable_unchecked<2>();
+  auto pb = branch.mutable_unchecked<2>();
   for (std::size_t k = 0; k < m; ++k) {
     const auto& c = list[k];
     pi(k) = c.i;
@@ -52,10 +53,12 @@ py::dict contacts_dict(const Sim& s) {
       pt(k, d) = c.torque_i[d];
       px(k, d) = c.tangential_displacement[d];
       pp(k, d) = c.wall_point[d];
+      pb(k, d) = c.branch[d];
     }
   }
   return py::dict("i"_a = i, "j"_a = j, "wall"_a = wall, "element"_a = element, "overlap"_a = overlap, "force"_a = force,
-                  "torque_i"_a = torque, "tangential_displacement"_a = xi, "wall_point"_a = wall_point);
+                  "torque_i"_a = torque, "tangential_displacement"_a = xi, "wall_point"_a = wall_point,
+                  "branch"_a = branch);
 }
 
 // numpy (N, 3) input, checked against the number of spheres, to one of the set_* functions.

@@ -204,6 +204,7 @@ std::vector<ContactInfo> Simulation::contacts() const {
                      torque(contacts_.pairs.nxft, contacts_.pairs.roll, particles_.arrays().radius[i], contacts_.pairs.overlap[e], e),
                      history(contacts_.pairs.xi, e), r[i] * r[lists_.near_partner[e]] / (r[i] + r[lists_.near_partner[e]]),
                      size(contacts_.pairs.xi, e)});
+      out.back().branch = vec3(particles_.arrays().x.data(), lists_.near_partner[e]) - vec3(particles_.arrays().x.data(), i);
     }
     for (Index e = lists_.wall_offset[i]; e < lists_.wall_offset[i + 1]; ++e) {
       if (!touching(law, contacts_.walls.overlap[e])) continue;

@@ -99,7 +99,8 @@ def contact_data(sim, contacts: dict | None = None, positions=None) -> dict:
     """The contact network: one row per touching contact of ``sim.contacts()``, in its order.
 
     Keys: ``i``, ``j`` (-1 for a wall), ``wall`` (-1 for a pair) (M,) int64; ``overlap`` [m]
-    (M,); ``start``, ``end`` [m] (M, 3): the centre of sphere i and that of sphere j, or for a
+    (M,); ``start``, ``end`` [m] (M, 3): the centre of sphere i and that of sphere j (in a
+    periodic box, j's image nearest i, outside the box for a contact across a face), or for a
     wall contact the point of the wall nearest the centre of i (a mesh's: of the contact's
     triangle; with ``positions`` given, planes only); ``normal`` (M, 3): the unit
     vector from ``start`` to ``end`` (the centre-to-centre direction; a rough contact's tilted
@@ -121,6 +122,9 @@ def contact_data(sim, contacts: dict | None = None, positions=None) -> dict:
     ids = _ids(sim)  # contacts name ids; the positions are by row
     start = x[np.searchsorted(ids, i)]
     end = x[np.searchsorted(ids, np.maximum(j, 0))]
+    if positions is None and "branch" in contacts:  # j's image nearest i: across a periodic face
+        pairs = np.flatnonzero(j >= 0)
+        end[pairs] = start[pairs] + np.asarray(contacts["branch"], dtype=np.float64).reshape(-1, 3)[pairs]
     walls = np.flatnonzero(j < 0)
     if walls.size:
         if positions is None and "wall_point" in contacts:  # (a mesh's: its nearest triangle)

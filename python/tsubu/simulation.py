@@ -1574,7 +1574,9 @@ class Simulation:
             - ``element``: a wall contact's element (a mesh's triangle, the row of its
               ``faces``; 0 for a plane; -1 for a pair), int, shape (M,);
             - ``wall_point``: a wall contact's point of the wall nearest the centre of i now
-              (on the plane, or on the triangle) [m], shape (M, 3) (zero for a pair).
+              (on the plane, or on the triangle) [m], shape (M, 3) (zero for a pair);
+            - ``branch``: a pair's x_j - x_i now [m], shape (M, 3), to the image of j nearest
+              i in a periodic box (zero for a wall contact).
         """
         return self._core.contacts()
 

@@ -57,6 +57,7 @@ struct ContactInfo {
   double reduced_radius;  // R* = r_i r_j / (r_i + r_j); a wall: r_i
   double contact_radius;  // a = sqrt(R* delta) as the Mindlin history keeps it; 0 otherwise
   Vec3 wall_point = Vec3::Zero();  // a wall contact: the point of the wall nearest i's centre now
+  Vec3 branch = Vec3::Zero();  // a pair: x_j - x_i now, to j's image nearest i (periodic boxes)
 };
 
 class Simulation : private detail::RunHooks {
