@@ -6,8 +6,8 @@ Schema and the key reference are generated from it (:mod:`tsubu.scene.reference`
 from __future__ import annotations
 
 from .._options import DECLARATIONS, declared
-from .language import (ArrayOf, Boolean, ByKey, Field, Integer, MapOf, Node, Number, NumberList,
-                       String, StringList, Table, Tagged, Vector, _NameList)
+from .language import (ArrayOf, Boolean, ByKey, Field, Integer, Letters, MapOf, Node, Number,
+                       NumberList, String, StringList, Table, Tagged, Vector, _NameList)
 
 
 # The version of the scene format (documented as tsubu.scene.FORMAT_VERSION).
@@ -166,7 +166,7 @@ def _box() -> Table:
         "upper": Field(Vector(unit="m"), "Upper corner: above lower along each periodic axis (along "
                                          "the others the corners only set the volume that stresses "
                                          "divide by).", required=True, unit="m"),
-        "periodic": Field(String(PERIODIC_AXES), "The periodic axes (along the others the scene is "
+        "periodic": Field(Letters(PERIODIC_AXES), "The periodic axes (along the others the scene is "
                                                  "open: walls bound it).", default='"xyz"'),
         "shear": Field(shear, "Lees-Edwards shear."),
         "pressure": Field(pressure, "Pressure control."),
