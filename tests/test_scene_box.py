@@ -254,3 +254,31 @@ def test_tsubu_resume_continues_the_example(tmp_path, capsys):
     assert resumed.step_count == whole.simulation.step_count
     same_state(resumed, whole.simulation)
     assert "tsubu resume" in capsys.readouterr().out
+
+
+# ---- output --------------------------------------------------------------------------------
+
+def test_npz_frames_hold_the_box_and_the_images(tmp_path):
+    data = cell()
+    data["output"] = {"npz": {"every": 100}}
+    built = scene.scene_from_dict(data, output_directory=tmp_path)
+    sim = built.simulation
+    sim.dt = 0.004 / 800  # 800 steps: the last frame is the end's
+    built.run(progress=False)
+    assert sim.step_count == 800
+    with np.load(tmp_path / "state_800.npz") as f:
+        frame = dict(f)
+    box = sim.box
+    assert np.array_equal(frame["box_lower"], box.lower) and np.array_equal(frame["box_upper"], box.upper)
+    assert str(frame["box_periodic"]) == "xyz" and frame["box_upper"][2] != S  # the controlled height
+    assert frame["box_shear_offset"] == box.shear_offset and frame["box_shear_rate"] == 20.0
+    assert frame["image"].dtype == np.int64 and np.array_equal(frame["image"], sim.images)
+    assert np.any(frame["image"] != 0)
+    assert np.array_equal(frame["unwrapped_position"], sim.unwrapped_positions)
+    assert np.array_equal(frame["position"], sim.positions)
+    del data["box"]
+    open_scene = scene.scene_from_dict(data, output_directory=tmp_path / "open")
+    open_scene.simulation.dt = 0.004 / 800
+    open_scene.run(until=0.0005, progress=False)
+    with np.load(tmp_path / "open" / "state_0.npz") as f:
+        assert not [k for k in f.files if k.startswith("box_") or k in ("image", "unwrapped_position")]

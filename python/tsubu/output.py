@@ -723,8 +723,11 @@ def save_npz(sim, path) -> str:
     Arrays: ``step`` and ``time`` [s] (0-d); ``material_names`` (str, one per entry of
     ``sim.materials``, "" when unnamed); the per-sphere arrays of :func:`particle_data`
     (``id``, ``position``, ...); the contacts as ``contact_<key>`` for each key of
-    :func:`contact_data` (``contact_i``, ``contact_force``, ...). Written under a temporary name
-    and renamed when complete.
+    :func:`contact_data` (``contact_i``, ``contact_force``, ...); in a periodic box
+    (``sim.box``), the box as ``box_lower``, ``box_upper`` [m], ``box_periodic`` (str),
+    ``box_shear_offset`` [m], ``box_shear_rate`` [1/s], and each sphere's ``image`` (N, 3)
+    int64 (``sim.images``) and ``unwrapped_position`` [m] (``sim.unwrapped_positions``).
+    Written under a temporary name and renamed when complete.
     """
     path = os.fspath(path)
     raw = sim.contacts()
@@ -734,6 +737,7 @@ def save_npz(sim, path) -> str:
               "material_names": np.array([m.name or "" for m in sim.materials], dtype=str)}
     arrays.update(particles)
     arrays.update({f"contact_{k}": v for k, v in contact_data(sim, raw, particles["position"]).items()})
+    arrays.update(_box_arrays(sim))
     if os.path.dirname(path):
         os.makedirs(os.path.dirname(path), exist_ok=True)
 
@@ -743,6 +747,24 @@ def save_npz(sim, path) -> str:
 
     _write_atomically(path, write)
     return path
+
+
+def _box_arrays(sim) -> dict:
+    """The periodic box of ``sim`` as npz arrays (none for an open scene): ``box_lower``,
+    ``box_upper`` [m] (3,), ``box_periodic`` (the axes, a str), ``box_shear_offset`` [m] and
+    ``box_shear_rate`` [1/s] (0-d), ``image`` (N, 3) int64, the images each sphere crossed
+    (``Simulation.images``), and ``unwrapped_position`` [m] (N, 3), position + image L plus the
+    Lees-Edwards slides taken (``Simulation.unwrapped_positions``), rows as ``position``'s."""
+    box = getattr(sim, "box", None)
+    if box is None:
+        return {}
+    return {"box_lower": np.array(box.lower, dtype=np.float64),
+            "box_upper": np.array(box.upper, dtype=np.float64),
+            "box_periodic": np.array(box.periodic, dtype=str),
+            "box_shear_offset": np.array(box.shear_offset, dtype=np.float64),
+            "box_shear_rate": np.array(box.shear_rate, dtype=np.float64),
+            "image": np.array(sim.images, dtype=np.int64),
+            "unwrapped_position": np.array(sim.unwrapped_positions, dtype=np.float64)}
 
 
 # Column names of the CSV tables: a vector ``force`` is three columns ``force_x, force_y, force_z``.
