@@ -282,3 +282,14 @@ def test_npz_frames_hold_the_box_and_the_images(tmp_path):
     open_scene.run(until=0.0005, progress=False)
     with np.load(tmp_path / "open" / "state_0.npz") as f:
         assert not [k for k in f.files if k.startswith("box_") or k in ("image", "unwrapped_position")]
+
+
+def test_vtk_output_draws_the_box(tmp_path):
+    pytest.importorskip("pyevtk")
+    data = cell()
+    data["output"] = {"vtk": {"every": 400, "contacts": False}}
+    built = scene.scene_from_dict(data, output_directory=tmp_path)
+    built.simulation.dt = 0.004 / 800
+    built.run(progress=False)
+    assert {f for f in (tmp_path).iterdir() if "_box" in f.name} == {
+        tmp_path / "particles_box.pvd", *(tmp_path / f"particles_box_{s}.vtp" for s in (0, 400, 800))}

@@ -432,7 +432,7 @@ def _build_spec() -> Table:
                                      "`tsubu run --output` overrides it).", default='"output"'),
         "vtk": Field(_writer("particles", "VTK XML files for ParaView (tsubu.output.VTKOutput).", {
             "contacts": Field(Boolean(), "Write the contact network.", default="true"),
-            "walls": Field(Boolean(), "Write the walls.", default="true"),
+            "walls": Field(Boolean(), "Write the walls (and a periodic box's outline).", default="true"),
         }), "ParaView output."),
         "npz": Field(_writer("state", "numpy .npz files (tsubu.output.NpzOutput)."), "npz dumps."),
         "csv": Field(_writer("state", "CSV tables (tsubu.output.CSVOutput), with an index "
