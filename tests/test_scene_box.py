@@ -293,3 +293,14 @@ def test_vtk_output_draws_the_box(tmp_path):
     built.run(progress=False)
     assert {f for f in (tmp_path).iterdir() if "_box" in f.name} == {
         tmp_path / "particles_box.pvd", *(tmp_path / f"particles_box_{s}.vtp" for s in (0, 400, 800))}
+
+
+def test_the_box_example_in_the_docs_is_valid():
+    import tomllib
+    page = (DOCS / "scene-format.md").read_text(encoding="utf-8")
+    block = page.split("## Periodic boxes", 1)[1].split("```toml\n", 1)[1].split("```", 1)[0]
+    data = {**cell(), **tomllib.loads(block)}
+    assert set(data["box"]) == {"lower", "upper", "periodic", "shear", "pressure"}
+    scene.validate(data)
+    jsonschema = pytest.importorskip("jsonschema")
+    assert jsonschema.Draft202012Validator(json.loads((DOCS / "scene.schema.json").read_text())).is_valid(data)

@@ -156,7 +156,8 @@ def _box() -> Table:
                       required=True, unit="1/(Pa s)"),
         "axis": Field(String(AXES), "The controlled axis (periodic).", default='"z"'),
         "max_strain_rate": Field(Number("1/s", **POSITIVE), "Cap on abs(d ln L / dt).",
-                                 default="0.01 / the contact duration of the particles blocks' spheres",
+                                 default="0.01 / the contact duration (Simulation.contact_duration()) of the particles blocks' "
+                                         "spheres",
                                  unit="1/s"),
     }, doc="Pressure control (Simulation.set_pressure): after every step the box stretches along the "
            "axis about its lower face, the spheres with it, at the strain rate gain (P - pressure), "
