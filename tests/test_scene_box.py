@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 import tsubu
-from tsubu import scene
+from tsubu import fill, scene
 from tsubu.__main__ import main
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
@@ -44,7 +44,7 @@ def by_hand(data):
     glass = tsubu.Material(density=2500.0, kn=1000.0, restitution=0.5, friction=0.5, name="glass")
     sim = tsubu.Simulation(gravity=(0, 0, 0), threads=1)
     block = data["particles"][0]
-    packing = tsubu.fill.lattice(tsubu.fill.Box(block["region"]["lower"], block["region"]["upper"]),
+    packing = fill.lattice(fill.Box(block["region"]["lower"], block["region"]["upper"]),
                                  block["radius"])
     sim.add_spheres(packing.positions, packing.radii, glass,
                     velocities=np.tile(block["velocity"], (len(packing.radii), 1)))
@@ -296,7 +296,7 @@ def test_vtk_output_draws_the_box(tmp_path):
 
 
 def test_the_box_example_in_the_docs_is_valid():
-    import tomllib
+    tomllib = pytest.importorskip("tomllib")  # Python 3.11+
     page = (DOCS / "scene-format.md").read_text(encoding="utf-8")
     block = page.split("## Periodic boxes", 1)[1].split("```toml\n", 1)[1].split("```", 1)[0]
     data = {**cell(), **tomllib.loads(block)}
