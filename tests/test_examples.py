@@ -129,7 +129,7 @@ SCENES = EXAMPLES / "scenes"
 
 
 @pytest.mark.parametrize("name, spheres", [("oblique_collision", 2), ("pouring_heap", 0),
-                                           ("column_collapse", 449)])
+                                           ("column_collapse", 449), ("periodic_shear", 276)])
 def test_example_scene_files_load(name, spheres, tmp_path):
     scene_module = pytest.importorskip("tsubu.scene")
     scene = scene_module.load_scene(SCENES / f"{name}.toml", output_directory=tmp_path)

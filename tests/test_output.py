@@ -247,6 +247,42 @@ def test_a_given_extent_sets_an_axis_aligned_walls_rectangle(scene, tmp_path):
 
 # ---- the hook and its .pvd series --------------------------------------------------------------
 
+def periodic_cell():
+    """Eight spheres in a box periodic along x and y (z: open, its corners only a volume)."""
+    glass = tsubu.Material(density=2500.0, kn=2e3, restitution=0.5, friction=0.4, name="glass")
+    sim = tsubu.Simulation(gravity=(0, 0, 0))
+    x = np.array([[i, j, 1.0] for i in (1.5, 4.5) for j in (1.5, 4.5)] * 2) * 1e-3
+    x[4:, 2] = 4e-3
+    sim.add_spheres(x, np.full(8, 1e-3), glass, velocities=np.tile([0.5, 0.2, 0.0], (8, 1)))
+    sim.set_box((0, 0, 0), (6e-3, 6e-3, 5e-3), periodic="xy")
+    return sim
+
+
+def test_a_periodic_box_is_drawn_as_its_outline(tmp_path):
+    sim = periodic_cell()
+    hook = output.VTKOutput(tmp_path, every=50)
+    sim.run(steps=100, output=[hook])
+    assert [f for _, f in read_pvd(tmp_path / "particles_box.pvd")] == [
+        f"particles_box_{s}.vtp" for s in (0, 50, 100)]
+    outline = read_vtk(tmp_path / "particles_box_100.vtp")
+    corners = outline["points"]
+    assert sorted(map(tuple, corners.tolist())) == sorted(
+        (x, y, z) for x in (0, 6e-3) for y in (0, 6e-3) for z in (0, 5e-3))
+    assert same(outline["lines"]["offsets"], np.arange(2, 25, 2, dtype=np.int64))
+    ends = corners[outline["lines"]["connectivity"].reshape(12, 2)]
+    along = ends[:, 1] - ends[:, 0]
+    axis = outline["cell"]["axis"]
+    assert sorted(axis.tolist()) == [0] * 4 + [1] * 4 + [2] * 4
+    assert np.all(along[np.arange(12), axis] == np.array([6e-3, 6e-3, 5e-3])[axis])  # each edge along its axis
+    assert np.count_nonzero(along) == 12
+    assert same(outline["cell"]["periodic"], (axis < 2).astype(np.int64))  # x and y periodic, z open
+    # without the walls, or in an open scene, no outline
+    output.write_vtk(sim, tmp_path / "none", walls=False)
+    sim.set_box((0, 0, 0), (6e-3, 6e-3, 5e-3), periodic="")
+    assert "box" not in output.write_vtk(sim, tmp_path / "open")
+    assert not [f for d in ("none", "open") for f in os.listdir(tmp_path / d) if "_box" in f]
+
+
 def test_frames_every_k_steps_across_two_runs_none_twice(tmp_path):
     sim = settled_scene()
     hook = output.VTKOutput(tmp_path, every=25)

@@ -103,7 +103,7 @@ BAD_VALUES = [
     (("output",), {"npz": {"every": 0}}, "output.npz.every = 0: must be >= 1"),
     (("checkpoint",), {"keep": 2, "evry": 10},
      "checkpoint.evry = 10: unknown key; allowed: path, every, interval, keep (did you mean every?)"),
-    (("extra",), 1, "extra = 1: unknown key; allowed: simulation, materials, pairs, walls, meshes, schedule, particles, "
+    (("extra",), 1, "extra = 1: unknown key; allowed: simulation, materials, pairs, walls, meshes, schedule, box, particles, "
                     "inserters, outlets, output, checkpoint"),
 ]
 

@@ -5,8 +5,8 @@ writing a frame every ``every`` steps:
 
 - :class:`VTKOutput`: particles (``.vtu``), the contact network (``.vtp``, one line per
   contact) and the walls (``.vtp``, one rectangle per plane, and one ``.vtp`` per mesh wall
-  with its triangles where they are now), each with a ``.pvd`` time series that ParaView opens
-  as one animated data set;
+  with its triangles where they are now; in a periodic box, its outline), each with a ``.pvd``
+  time series that ParaView opens as one animated data set;
 - :class:`NpzOutput`, :class:`CSVOutput`: the same particle (and contact) arrays as numpy
   ``.npz`` archives or CSV tables.
 
@@ -287,6 +287,23 @@ def mesh_data(sim) -> list[dict]:
     return found
 
 
+def _box_outline(sim) -> dict | None:
+    """The periodic box of ``sim`` (``sim.box``) as 12 edges between its 8 corners, or None for
+    an open scene: ``corners`` [m] (8, 3), corner k at (lower or upper by bit 0, 1, 2 of k);
+    ``edges`` (12, 2) int64, corner indices; per edge ``axis`` (12,) int64, 0, 1, 2 for x, y, z,
+    and ``periodic`` (12,) int64, 1 along a periodic axis."""
+    box = getattr(sim, "box", None)
+    if box is None:
+        return None
+    lo, hi = np.asarray(box.lower, dtype=np.float64), np.asarray(box.upper, dtype=np.float64)
+    corners = np.array([[(hi if k >> a & 1 else lo)[a] for a in range(3)] for k in range(8)])
+    edges = [(k, k | 1 << a, a) for k in range(8) for a in range(3) if not k >> a & 1]
+    return {"corners": corners,
+            "edges": np.array([(i, j) for i, j, _ in edges], dtype=np.int64),
+            "axis": np.array([a for _, _, a in edges], dtype=np.int64),
+            "periodic": np.array(["xyz"[a] in box.periodic for _, _, a in edges], dtype=np.int64)}
+
+
 # ---- VTK XML files (pyevtk) ----------------------------------------------------------------------
 
 class _VTKWriter:
@@ -445,6 +462,14 @@ def _write_mesh(vtk, path: str, sim, mesh: dict) -> None:
         "normal": mesh["normal"]})
 
 
+def _write_box(vtk, path: str, sim, outline: dict) -> None:
+    _write_piece(vtk, path, vtk.VtkPolyData, sim, {"npoints": 8, "nlines": 12}, {
+        "Points": {"points": outline["corners"]},
+        "Lines": {"connectivity": outline["edges"].reshape(-1),
+                  "offsets": np.arange(2, 25, 2, dtype=np.int64)},
+    }, "Cell", "periodic", None, {key: outline[key] for key in ("axis", "periodic")})
+
+
 def write_vtk(sim, directory, name: str = "particles", contacts: bool = True, walls: bool = True,
               extent=None) -> dict:
     """Write the Simulation's current state as VTK XML files (one frame), for ParaView.
@@ -455,12 +480,14 @@ def write_vtk(sim, directory, name: str = "particles", contacts: bool = True, wa
     :func:`contact_data` as cell data) if ``contacts``, ``<name>_walls_<step>.vtp`` (one
     rectangle per plane, :func:`wall_data`, clipped to ``extent`` = (lower, upper) [m], default
     :func:`scene_extent`) if ``walls``, and with it ``<name>_mesh<k>_<step>.vtp`` for each
-    mesh wall k not removed (its triangles at their current place, :func:`mesh_data`). Every
+    mesh wall k not removed (its triangles at their current place, :func:`mesh_data`), and in a
+    periodic box ``<name>_box_<step>.vtp``, the box's outline (12 lines, cell data ``axis`` and
+    ``periodic``). Every
     file carries the field data ``TimeValue`` (the simulated time [s]) and ``step``. Each file
     is written under a temporary name and renamed when complete.
 
     Returns a dict: the path of each file written, under ``"particles"``, ``"contacts"``,
-    ``"walls"``, and under ``"meshes"`` a dict {wall index: path} of the mesh walls' files
+    ``"walls"``, ``"box"``, and under ``"meshes"`` a dict {wall index: path} of the mesh walls' files
     (absent when none was written). Raises ImportError when pyevtk is not installed
     (``pip install 'tsubu[vtk]'``).
     """
@@ -488,6 +515,10 @@ def write_vtk(sim, directory, name: str = "particles", contacts: bool = True, wa
             meshes[mesh["wall"]] = os.path.join(directory, f"{name}_mesh{mesh['wall']}_{step}.vtp")
             _write_atomically(meshes[mesh["wall"]],
                               lambda p, mesh=mesh: _write_mesh(vtk, p, sim, mesh))
+        outline = _box_outline(sim)
+        if outline is not None:
+            written["box"] = os.path.join(directory, f"{name}_box_{step}.vtp")
+            _write_atomically(written["box"], lambda p: _write_box(vtk, p, sim, outline))
         if meshes:
             written["meshes"] = meshes
     return written
@@ -658,7 +689,8 @@ class VTKOutput(_EveryK):
     name : str
         File-name stem. Default ``"particles"``.
     contacts, walls : bool
-        Also write the contact network and the walls (planes and mesh walls). Default True.
+        Also write the contact network and the walls (planes and mesh walls, and a periodic
+        box's outline). Default True.
     extent : (lower, upper) 3-vectors [m] or None
         The box the wall rectangles cover; None: :func:`scene_extent` of each frame.
 
@@ -667,7 +699,8 @@ class VTKOutput(_EveryK):
     Each frame writes the files of :func:`write_vtk`; after it the collections
     ``<name>.pvd``, ``<name>_contacts.pvd``, ``<name>_walls.pvd`` (the frames' simulated times
     and files: open these in ParaView; the walls' collection lists at each time the planes'
-    file as part 0 and each mesh wall k's file as part k + 1, a removed wall no more) are
+    file as part 0 and each mesh wall k's file as part k + 1, a removed wall no more) and, with
+    the walls, in a periodic box ``<name>_box.pvd`` (the box's outline) are
     rewritten under a temporary name, flushed to disk and
     renamed, so that a run killed at any moment leaves valid ones. When a collection already
     exists (a run resumed from a checkpoint into the same directory), the frames it lists before
@@ -707,6 +740,9 @@ class VTKOutput(_EveryK):
                                             rf"{esc}_(?:walls|mesh\d+)_(\d+)\.vtp")
 
     def _write(self, sim) -> None:
+        if self.walls and "box" not in self._series and getattr(sim, "box", None) is not None:
+            self._series["box"] = _Series(self.directory, f"{self.name}_box.pvd",
+                                          rf"{re.escape(self.name)}_box_(\d+)\.vtp")
         for series in self._series.values():
             series.claim(sim, sim.step_count, f"VTKOutput(name={self.name!r})")
         written = write_vtk(sim, self.directory, self.name, self.contacts, self.walls, self.extent)
@@ -727,8 +763,11 @@ def save_npz(sim, path) -> str:
     Arrays: ``step`` and ``time`` [s] (0-d); ``material_names`` (str, one per entry of
     ``sim.materials``, "" when unnamed); the per-sphere arrays of :func:`particle_data`
     (``id``, ``position``, ...); the contacts as ``contact_<key>`` for each key of
-    :func:`contact_data` (``contact_i``, ``contact_force``, ...). Written under a temporary name
-    and renamed when complete.
+    :func:`contact_data` (``contact_i``, ``contact_force``, ...); in a periodic box
+    (``sim.box``), the box as ``box_lower``, ``box_upper`` [m], ``box_periodic`` (str),
+    ``box_shear_offset`` [m], ``box_shear_rate`` [1/s], and each sphere's ``image`` (N, 3)
+    int64 (``sim.images``) and ``unwrapped_position`` [m] (``sim.unwrapped_positions``).
+    Written under a temporary name and renamed when complete.
     """
     path = os.fspath(path)
     raw = sim.contacts()
@@ -738,6 +777,7 @@ def save_npz(sim, path) -> str:
               "material_names": np.array([m.name or "" for m in sim.materials], dtype=str)}
     arrays.update(particles)
     arrays.update({f"contact_{k}": v for k, v in contact_data(sim, raw, particles["position"]).items()})
+    arrays.update(_box_arrays(sim))
     if os.path.dirname(path):
         os.makedirs(os.path.dirname(path), exist_ok=True)
 
@@ -747,6 +787,24 @@ def save_npz(sim, path) -> str:
 
     _write_atomically(path, write)
     return path
+
+
+def _box_arrays(sim) -> dict:
+    """The periodic box of ``sim`` as npz arrays (none for an open scene): ``box_lower``,
+    ``box_upper`` [m] (3,), ``box_periodic`` (the axes, a str), ``box_shear_offset`` [m] and
+    ``box_shear_rate`` [1/s] (0-d), ``image`` (N, 3) int64, the images each sphere crossed
+    (``Simulation.images``), and ``unwrapped_position`` [m] (N, 3), position + image L plus the
+    Lees-Edwards slides taken (``Simulation.unwrapped_positions``), rows as ``position``'s."""
+    box = getattr(sim, "box", None)
+    if box is None:
+        return {}
+    return {"box_lower": np.array(box.lower, dtype=np.float64),
+            "box_upper": np.array(box.upper, dtype=np.float64),
+            "box_periodic": np.array(box.periodic, dtype=str),
+            "box_shear_offset": np.array(box.shear_offset, dtype=np.float64),
+            "box_shear_rate": np.array(box.shear_rate, dtype=np.float64),
+            "image": np.array(sim.images, dtype=np.int64),
+            "unwrapped_position": np.array(sim.unwrapped_positions, dtype=np.float64)}
 
 
 # Column names of the CSV tables: a vector ``force`` is three columns ``force_x, force_y, force_z``.

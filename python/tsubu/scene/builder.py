@@ -16,7 +16,7 @@ import numpy as np
 from .. import _checks
 from ..material import Material
 from ..simulation import Simulation
-from .language import _BAD, MISSING, SceneError, _closest, _join
+from .language import _BAD, MISSING, SceneError, _closest, _join, show
 from .spec import FORMAT_VERSION, RAMP_SEGMENTS, SPEC
 
 
@@ -58,6 +58,8 @@ def validate(data, source: str | None = None) -> dict:
                                + _closest(name, names)))
     if checked is not _BAD:  # the walls' names and schedules, once their keys are sound
         _check_walls(checked, errors)
+        if "box" in checked:
+            _check_box(checked["box"], errors)
     if isinstance(materials, dict) or checked is not _BAD:
         errors.sort(key=lambda e: _order(data, e[0]))
     if errors:
@@ -202,6 +204,39 @@ def _check_entry(path: str, entry: dict, errors: list) -> bool:
                                                               "(or leave segments out)"))
         return False
     return True
+
+
+def _check_box(box: dict, errors: list) -> None:
+    """A periodic box's rules between keys: upper above lower along each periodic axis, and the
+    shear's and the pressure control's axes periodic (the shear's two different)."""
+    periodic = box.get("periodic", "xyz")
+    for a in periodic:
+        d = "xyz".index(a)
+        if not box["upper"][d] > box["lower"][d]:
+            errors.append(("box.upper", box["upper"], f"must be above lower ({show(box['lower'])}) along "
+                                                      f"the periodic axis {a}"))
+            break
+
+    def periodic_axis(path: str, axis: str) -> None:
+        if axis not in periodic:
+            errors.append((path, axis, f"the box is not periodic along {axis} (box.periodic = "
+                                       f"{show(periodic)}): name a periodic axis, or add {axis} to "
+                                       "box.periodic"))
+
+    shear = box.get("shear")
+    if shear is not None:
+        flow, gradient = shear.get("flow", "x"), shear.get("gradient", "z")
+        if flow == gradient:  # reported at the key given (the other is its default)
+            key, other = ("gradient", "flow") if "gradient" in shear else ("flow", "gradient")
+            given = "" if other in shear else f", {other}'s default"
+            errors.append((f"box.shear.{key}", shear[key], f"must differ from the {other} axis "
+                                                          f"({shear.get(other, flow)}{given})"))
+        else:
+            periodic_axis("box.shear.flow", flow)
+            periodic_axis("box.shear.gradient", gradient)
+    pressure = box.get("pressure")
+    if pressure is not None:
+        periodic_axis("box.pressure.axis", pressure.get("axis", "z"))
 
 
 def wall_schedule(scene: dict, dt: float) -> list:
@@ -504,6 +539,8 @@ class _Builder:
             self.particles(sim, f"particles[{k}]", block)
         for k, spec in enumerate(s.get("inserters", [])):
             self.inserter(sim, f"inserters[{k}]", spec)
+        if "box" in s:
+            self.box(sim, s["box"])
         for k, spec in enumerate(s.get("outlets", [])):
             given = {key: v for key, v in spec.items() if key != "shape"}
             self.call(f"outlets[{k}]", given, sim.add_outlet, **given)
@@ -560,6 +597,22 @@ class _Builder:
         if "dt" in options:
             sim.dt = options["dt"]
         return sim
+
+    def box(self, sim: Simulation, spec: dict) -> None:
+        """The periodic box of ``[box]``, its shear and its pressure control, by the Simulation's
+        own methods (set_box, set_shear, set_pressure), after the spheres: the pressure
+        control's default cap is 0.01 over their contact duration."""
+        given = {k: spec[k] for k in ("lower", "upper", "periodic") if k in spec}
+        self.call("box", given, sim.set_box, **given)
+        if "shear" in spec:
+            self.call("box.shear", spec["shear"], sim.set_shear, **spec["shear"])
+        if "pressure" in spec:
+            pressure = spec["pressure"]
+            if "max_strain_rate" not in pressure and sim.size == 0:
+                self.fail("box.pressure.max_strain_rate", MISSING,
+                          "required when the scene has no particles blocks (the default is 0.01 / "
+                          "the contact duration of their spheres)")
+            self.call("box.pressure", pressure, sim.set_pressure, **pressure)
 
     def time_step(self, sim: Simulation, options: dict) -> None:
         """Fix dt for the whole run (a default evaluated at each run's start would change as

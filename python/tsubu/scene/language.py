@@ -222,18 +222,33 @@ class String(Node):
             errors.append((path, value, "must be a string"))
             return _BAD
         if self.choices and value not in self.choices:
-            errors.append((path, value, "must be " + _listing(self.choices) + _closest(value, self.choices)))
+            errors.append((path, value, "must be " + _listing(self.choices) + self.hint(value)))
             return _BAD
         if not self.choices and not value:
             errors.append((path, value, "must not be empty"))
             return _BAD
         return value
 
+    def hint(self, value: str) -> str:
+        """What to say after the choices about a ``value`` that is none of them."""
+        return _closest(value, self.choices)
+
     def schema(self):
         return {"type": "string", "enum": list(self.choices)} if self.choices else {"type": "string", "minLength": 1}
 
     def kind(self):
         return " \\| ".join(f'`"{c}"`' for c in self.choices) if self.choices else "string"
+
+
+class Letters(String):
+    """A set of letters written in one order (``"xz"``, periodic axes): one of ``choices``,
+    with a hint that names the choice of the same letters in another order (``"zx"``)."""
+
+    def hint(self, value: str) -> str:
+        same = [c for c in self.choices if sorted(c) == sorted(value)]
+        if same:
+            return f" (the same letters in this order: {json.dumps(same[0])})"
+        return _closest(value, self.choices)
 
 
 @dataclasses.dataclass

@@ -6,8 +6,8 @@ Schema and the key reference are generated from it (:mod:`tsubu.scene.reference`
 from __future__ import annotations
 
 from .._options import DECLARATIONS, declared
-from .language import (ArrayOf, Boolean, ByKey, Field, Integer, MapOf, Node, Number, NumberList,
-                       String, StringList, Table, Tagged, Vector, _NameList)
+from .language import (ArrayOf, Boolean, ByKey, Field, Integer, Letters, MapOf, Node, Number,
+                       NumberList, String, StringList, Table, Tagged, Vector, _NameList)
 
 
 # The version of the scene format (documented as tsubu.scene.FORMAT_VERSION).
@@ -127,6 +127,54 @@ def _writer(name_default: str, doc: str, extra: dict | None = None) -> Table:
     return Table({**_every(),
                   "name": Field(String(), "Base name of the files.", default=f'"{name_default}"'),
                   **(extra or {})}, doc=doc, one_of=(("every", "interval"),))
+
+
+# ---- a periodic box (docs/periodic.md) --------------------------------------------------------
+
+# The periodic axes a box may name (Simulation.set_box takes them in any order; the scene format
+# takes each set once, in x, y, z order, so that the schema can list them).
+PERIODIC_AXES = ("xyz", "xy", "xz", "yz", "x", "y", "z")
+AXES = ("x", "y", "z")
+
+
+def _box() -> Table:
+    """``[box]``: a periodic box, its Lees-Edwards shear and its pressure control."""
+    shear = Table({
+        "rate": Field(Number("1/s"), "Shear rate (any sign): the images across the gradient faces "
+                                     "slide along the flow at rate times the box's gradient length.",
+                      required=True, unit="1/s"),
+        "flow": Field(String(AXES), "The flow axis (periodic).", default='"x"'),
+        "gradient": Field(String(AXES), "The gradient axis (periodic, not the flow's).", default='"z"'),
+    }, doc="Lees-Edwards simple shear of the periodic box (Simulation.set_shear): the mean flow "
+           "u = rate (x_gradient - centre) along the flow develops without walls.", name="box.shear")
+    pressure = Table({
+        "pressure": Field(Number("Pa", **POSITIVE), "Target normal stress along the axis "
+                                                    "(compression positive).", required=True, unit="Pa"),
+        "gain": Field(Number("1/(Pa s)", **POSITIVE), "d ln L / dt per pascal of pressure error: the box "
+                                                      "relaxes with the time constant 1 / (K gain), K ~ "
+                                                      "kn / d (docs/periodic.md: how to choose it).",
+                      required=True, unit="1/(Pa s)"),
+        "axis": Field(String(AXES), "The controlled axis (periodic).", default='"z"'),
+        "max_strain_rate": Field(Number("1/s", **POSITIVE), "Cap on abs(d ln L / dt).",
+                                 default="0.01 / the contact duration (Simulation.contact_duration()) of the particles blocks' "
+                                         "spheres",
+                                 unit="1/s"),
+    }, doc="Pressure control (Simulation.set_pressure): after every step the box stretches along the "
+           "axis about its lower face, the spheres with it, at the strain rate gain (P - pressure), "
+           "so that the normal stress P follows the target.", name="box.pressure")
+    return Table({
+        "lower": Field(Vector(unit="m"), "Lower corner.", required=True, unit="m"),
+        "upper": Field(Vector(unit="m"), "Upper corner: above lower along each periodic axis (along "
+                                         "the others the corners only set the volume that stresses "
+                                         "divide by).", required=True, unit="m"),
+        "periodic": Field(Letters(PERIODIC_AXES), "The periodic axes (along the others the scene is "
+                                                 "open: walls bound it).", default='"xyz"'),
+        "shear": Field(shear, "Lees-Edwards shear."),
+        "pressure": Field(pressure, "Pressure control."),
+    }, doc="A periodic box (Simulation.set_box; docs/periodic.md): a sphere that leaves through a "
+           "face comes back through the opposite one, and spheres near a face touch the images of "
+           "those near the other. Each periodic length must be at least twice the neighbour reach, "
+           "2 (2 r_max + skin) (checked when the run starts).", name="box")
 
 
 # ---- walls: meshes and motion schedules ---------------------------------------------------------
@@ -385,7 +433,7 @@ def _build_spec() -> Table:
                                      "`tsubu run --output` overrides it).", default='"output"'),
         "vtk": Field(_writer("particles", "VTK XML files for ParaView (tsubu.output.VTKOutput).", {
             "contacts": Field(Boolean(), "Write the contact network.", default="true"),
-            "walls": Field(Boolean(), "Write the walls.", default="true"),
+            "walls": Field(Boolean(), "Write the walls (and a periodic box's outline).", default="true"),
         }), "ParaView output."),
         "npz": Field(_writer("state", "numpy .npz files (tsubu.output.NpzOutput)."), "npz dumps."),
         "csv": Field(_writer("state", "CSV tables (tsubu.output.CSVOutput), with an index "
@@ -414,6 +462,7 @@ def _build_spec() -> Table:
         "schedule": Field(ArrayOf(_schedule_entry(top_level=True), "Wall motion changes."),
                           "Changes of the named walls' motion during the run (as a wall's own "
                           "schedule, for one or several walls)."),
+        "box": Field(_box(), "A periodic box."),
         "particles": Field(ArrayOf(particles, "Blocks of spheres."), "Blocks of spheres."),
         "inserters": Field(ArrayOf(inserter, "Inserters."), "Inserters."),
         "outlets": Field(ArrayOf(outlet, "Outlets."), "Outlets."),
