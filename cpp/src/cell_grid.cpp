@@ -20,10 +20,11 @@ NeighborList::CellGrid NeighborList::plan_grid(const Context& c, double skin) co
   const double rmax = *std::max_element(p.radius.begin(), p.radius.begin() + n);
   g.h = 2.0 * rmax + skin;  // cells no smaller than the largest cutoff
   // A periodic box: the box and its ghosts' layer (NeighborList::ghost_margin), on a dense grid.
+  const double margin = c.domain.periodic() ? ghost_margin(g.h, skin) + c.domain.excursion(p.x.data(), n) : 0.0;
   for (int d = 0; d < 3; ++d)
     if (c.domain.periodic(d)) {
-      g.lo[d] = c.domain.lower()[d] - ghost_margin(g.h, skin);
-      g.hi[d] = c.domain.upper()[d] + ghost_margin(g.h, skin);
+      g.lo[d] = c.domain.lower()[d] - margin;
+      g.hi[d] = c.domain.upper()[d] + margin;
     }
   const double max_cells = 2.0 * static_cast<double>(n) + 1000.0;
   double total = 1;

@@ -89,7 +89,9 @@ void NeighborList::make_ghosts(const Context& c, const CellGrid& g) {
     for (int d = 0; d < 3; ++d) k[d] = std::clamp(static_cast<long>((y[d] - g.lo[d]) / g.h), 0L, g.dims[d] - 1);
     return static_cast<std::uint64_t>((k[2] * g.dims[1] + k[1]) * g.dims[0] + k[0]);
   };
-  c.domain.make_ghosts(c.particles.arrays(), n, ghost_margin(g.h, skin), cell);
+  // (Spheres left unwrapped, as a checkpoint's restore leaves them, may stand further out.)
+  const double margin = ghost_margin(g.h, skin) + c.domain.excursion(c.particles.arrays().x.data(), n);
+  c.domain.make_ghosts(c.particles.arrays(), n, margin, ghost_margin(g.h, skin), cell);
   c.particles.set_ghosts(c.domain.ghosts());
   const double* x = c.particles.arrays().x.data();
   ghost_cell_start_.assign(ncell + 1, 0);

@@ -1085,7 +1085,12 @@ class Simulation:
         if box is None or "xyz"[a] not in box.periodic:
             raise ValueError(f"set_pressure: the box must be periodic along axis {axis!r}; call set_box first")
         if max_strain_rate is None:
-            rate = 0.01 / self.contact_duration()
+            duration = self.contact_duration()
+            if not (math.isfinite(duration) and duration > 0):
+                raise ValueError("set_pressure: max_strain_rate defaults to 0.01 / contact_duration(), and this "
+                                 "scene has no contact duration yet (no spheres, or no stiffness): add the "
+                                 "spheres first or give max_strain_rate")
+            rate = 0.01 / duration
         else:
             rate = _checks.positive("max_strain_rate", max_strain_rate)
         self._core.set_pressure(p, a, k, rate)

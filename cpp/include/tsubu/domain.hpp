@@ -10,6 +10,7 @@
 // halo is the same rows. Ghosts are made at every rebuild (after the owned spheres are wrapped
 // into the box, counting their images) and moved with their sources after every step.
 #pragma once
+#include <algorithm>
 #include <array>
 #include <cmath>
 #include <cstddef>
@@ -54,6 +55,30 @@ class Domain {
   // moved bound adds per step.
   double shear_speed() const { return std::abs(rate_) * length()[gradient_]; }
 
+  // How far the n positions stand outside the periodic faces, at most (0 inside).
+  double excursion(const double* x, std::size_t n) const {
+    double most = 0;
+    for (std::size_t k = 0; k < n; ++k)
+      for (int d = 0; d < 3; ++d)
+        if (periodic_[d]) most = std::max({most, lo_[d] - x[3 * k + d], x[3 * k + d] - hi_[d]});
+    return most;
+  }
+  // In a Lees–Edwards box without walls, what a step books in the lists' displacement bound:
+  // pairs separate by the spheres' velocities less the mean flow u = rate (x_g - centre) (an
+  // image's velocity is its source's plus the mean flow's change over a box length, so it has
+  // its source's fluctuation), plus the mean flow's own shear across a listed pair, rate x its
+  // separation (at most the ghosts' reach): dt (max |v - u| + |rate| reach / 2) per sphere.
+  double sheared_move(const ParticleStore& p, std::size_t n, double dt) const {
+    const double centre = 0.5 * (lo_[gradient_] + hi_[gradient_]);
+    double most = 0;
+    for (std::size_t k = 0; k < n; ++k) {
+      Vec3 v = vec3(p.v.data(), k);
+      v[flow_] -= rate_ * (p.x[3 * k + gradient_] - centre);
+      most = std::max(most, v.squaredNorm());
+    }
+    return dt * (std::sqrt(most) + 0.5 * std::abs(rate_) * reach_);
+  }
+
   // ---- per run ---------------------------------------------------------------------------
   // Slides the images by dt (Lees–Edwards).
   void advance(double dt) { offset_ += rate_ * length()[gradient_] * dt; }
@@ -64,10 +89,11 @@ class Domain {
   // each; the accessors apply it to copies between rebuilds).
   void wrap_one(double* x, double* v, int* image, double* slid) const;
   // Appends the ghosts of the n owned spheres that lie within `margin` of the periodic faces
-  // (all images needed by pairs up to that reach), sorted by cell through `order` (a callback
-  // mapping a position to a sort key), and records their sources and shifts.
+  // (all images needed by pairs up to that reach), sorted by cell through `key` (a callback
+  // mapping a position to a sort key), and records their sources and shifts; `reach` bounds a
+  // listed pair's separation (sheared_move, stretch).
   template <class Key>
-  void make_ghosts(ParticleStore& p, std::size_t n, double margin, Key&& key);
+  void make_ghosts(ParticleStore& p, std::size_t n, double margin, double reach, Key&& key);
   // Moves the ghosts with their sources: x = x_src + shift, v = v_src (+ the slide's speed), w.
   void update_ghosts(ParticleStore& p, std::size_t n) const;
   std::size_t ghosts() const { return source_.size(); }
@@ -136,18 +162,18 @@ class Domain {
   Array<std::int8_t> image_;
   Array<std::int8_t> slide_;
   Servo servo_;
-  double reach_ = 0;  // the ghosts' margin at the last make_ghosts
+  double reach_ = 0;  // a listed pair's separation, at most (make_ghosts)
 };
 
 template <class Key>
-void Domain::make_ghosts(ParticleStore& p, std::size_t n, double margin, Key&& key) {
+void Domain::make_ghosts(ParticleStore& p, std::size_t n, double margin, double reach, Key&& key) {
   clear_ghosts();
   if (!any_) return;
-  reach_ = margin;
+  reach_ = reach;
   const Vec3 L = length();
   // Each owned sphere's images within `margin` of the box: offsets -1, 0, 1 along each periodic
-  // axis; across the sheared faces the flow coordinate first slides, then takes any image of
-  // the flow axis (-2..1: a slide of up to one length) that lands within reach.
+  // axis; across the sheared faces the flow coordinate first slides (by up to a length either
+  // way), then takes any image of the flow axis (-2..2) that lands within reach.
   struct Ghost {
     std::uint64_t key;
     Index source;
@@ -176,7 +202,7 @@ void Domain::make_ghosts(ParticleStore& p, std::size_t n, double margin, Key&& k
           if (s != 0) {  // a sheared image: its flow image is chosen after the slide
             if (c[flow_] != 0) continue;
             const double slid = s * offset_;
-            for (int a = -2; a <= 1; ++a) {
+            for (int a = -2; a <= 2; ++a) {
               c[flow_] = a;
               Vec3 ys = x + Vec3(c[0] * L[0], c[1] * L[1], c[2] * L[2]);
               ys[flow_] += slid;
