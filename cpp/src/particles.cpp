@@ -33,8 +33,10 @@ Id Particles::add(std::size_t n, const double* positions, const double* radii, c
     s_.inv_inertia.push_back(1.0 / (0.4 * m * r * r));  // I = 2/5 m r^2 (1.3)
     s_.dissipated.push_back(0.0);
     s_.material.push_back(materials[k]);
-    for (int c = 0; c < 3; ++c) s_.image.push_back(0);
-    s_.slid.push_back(0.0);
+    if (s_.imaged) {
+      for (int c = 0; c < 3; ++c) s_.image.push_back(0);
+      s_.slid.push_back(0.0);
+    }
     if (!dense()) rank_of_.push_back(static_cast<Index>(n_));  // the largest id: the last row
     s_.id.push_back(static_cast<Id>(index_of_.size()));
     index_of_.push_back(static_cast<Index>(n_));

@@ -27,6 +27,7 @@ void Simulation::set_box(const Vec3& lower, const Vec3& upper, const std::array<
   if (domain_.sheared() && !(periodic[domain_.flow()] && periodic[domain_.gradient()]))
     domain_.set_shear(0, domain_.flow(), domain_.gradient());  // (kept only with its axes)
   domain_.set_box(lower, upper, periodic);
+  if (domain_.periodic()) particles_.keep_images();
   domain_.clear_ghosts();
   particles_.drop_ghosts();
   lists_.valid = false;
@@ -87,6 +88,10 @@ void Simulation::gather_wrapped(double* x, double* v) const {
 
 void Simulation::get_images(std::int64_t* out) const {
   const ParticleStore& p = particles_.arrays();
+  if (!p.imaged) {  // (never periodic)
+    std::fill(out, out + 3 * particles_.size(), std::int64_t(0));
+    return;
+  }
   for (std::size_t k = 0; k < particles_.size(); ++k) {
     double xk[3], vk[3], slid = p.slid[k];
     int image[3];

@@ -56,7 +56,7 @@ def digest(sim: tsubu.Simulation) -> str:
         h.update(np.ascontiguousarray(a).tobytes())
     c = sim.contacts()
     for key in sorted(c):
-        if key in ("element", "wall_point"):  # (added with meshes, after these files)
+        if key in ("element", "wall_point", "branch"):  # (added later, after these files)
             continue
         h.update(key.encode())
         h.update(np.ascontiguousarray(c[key]).tobytes())

@@ -26,6 +26,13 @@ class Particles {
   // are not spheres of their own: size(), ids and everything in id order ignore them.
   std::size_t ghosts() const { return g_; }
   void set_ghosts(std::size_t g) { g_ = g; }
+  // Keeps image counters and slides from now on (a periodic box), zero for every sphere.
+  void keep_images() {
+    if (s_.imaged) return;
+    s_.image.assign(3 * (n_ + g_), 0);
+    s_.slid.assign(n_ + g_, 0.0);
+    s_.imaged = true;
+  }
   void drop_ghosts() {
     if (g_ == 0) return;
     s_.for_each_field([&](auto& a, int width) { a.resize(width * n_); });

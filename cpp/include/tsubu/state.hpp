@@ -21,15 +21,18 @@ struct ParticleStore {
   Array<Id> id;  // stable id (order of addition) of the particle at each index
   // A periodic box (domain.hpp): the images crossed along each axis, and the distance slid along
   // the flow across Lees–Edwards faces, so that x + image L + slid is the unwrapped position.
+  // Kept only once a scene has had a box (`imaged`): other scenes neither hold nor move them.
   Array<int> image;
   Array<double> slid;
+  bool imaged = false;
 
   // The field table: every array with the number of values it holds per particle.
   template <class S, class F>
   static void fields(S& s, F&& f) {
     f(s.x, 3), f(s.v, 3), f(s.w, 3);
     f(s.radius, 1), f(s.mass, 1), f(s.inv_mass, 1), f(s.inv_inertia, 1), f(s.dissipated, 1);
-    f(s.material, 1), f(s.id, 1), f(s.image, 3), f(s.slid, 1);
+    f(s.material, 1), f(s.id, 1);
+    if (s.imaged) f(s.image, 3), f(s.slid, 1);
   }
   template <class F>
   void for_each_field(F&& f) { fields(*this, f); }
