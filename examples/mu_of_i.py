@@ -1,37 +1,38 @@
 """The mu(I) rheology: simple shear of frictional spheres at constant pressure in a periodic cube.
 
-About 2,000 spheres (diameter d = 2 mm, density 2500 kg/m^3, linear spring-dashpot kn = 1e4 N/m,
+4,000 spheres (diameter d = 2 mm, density 2500 kg/m^3, linear spring-dashpot kn = 1e4 N/m,
 kt = 2/7 kn, restitution 0.5, Coulomb friction 0.5: the law of ``benchmarks/shear_lammps.py``) fill
 a cube periodic along x, y and z. Lees-Edwards images shear it (``sim.set_shear``: flow along x,
 gradient along z) at a rate chosen for a target inertial number I = rate d / sqrt(p / rho), and
-the box's z length follows the target normal stress p = 5 kPa (``sim.set_pressure`` on z), so that
+the box's z length then follows the target normal stress p = 5 kPa (``sim.set_pressure`` on z), so that
 kn / (p d) = 1e3: the rigid limit of the grains (overlaps ~ 1e-3 d). For each of six inertial
 numbers from 1e-3 to 0.3 (log-spaced) the cell is
 
 - built: a random packing compressed to solid fraction 0.6 by frictionless damped relaxations
   (``shear_lammps.make_packing``), then expanded to a guess of the steady solid fraction at that
-  I (``phi_guess``), velocities on the shear profile; the pressure control then has little to do;
-- sheared through a transient strain (``SETTLE``) to a steady state;
-- sheared through a measured strain (``MEASURE``), ``sim.stress()`` sampled every 0.01 of strain:
+  I (``phi_guess``, from trial runs), velocities on the shear profile;
+- sheared at constant volume through a strain of 0.15 (until then p ~ 0: the shear builds the
+  contact network), then under pressure control to a strain of 0.35 (the transient);
+- sheared through a measured strain of 0.5, ``sim.stress()`` sampled every 0.01 of strain:
   the shear stress tau = sigma_xz (positive for a positive rate: tension-positive Cauchy stress),
   the normal stress on the gradient face p = -sigma_zz (the pressure the control holds, and the
   one the literature divides by), the mean pressure -trace(sigma)/3 as well, and the solid
   fraction phi = N V_sphere / V_box.
 
 mu = <tau> / <p> and I = rate d / sqrt(<p> / rho) use the measured mean p (within a few per cent
-of the target). The error bars are the standard deviation of mu (and phi) over ``BLOCKS`` equal
+of the target, not exactly: see docs/rheology.md). The error bars are the standard deviation of mu (and phi) over ``BLOCKS`` equal
 blocks of the measurement. The points are fitted by Jop, Forterre & Pouliquen's (2006) law,
 
     mu(I) = mu_s + (mu_2 - mu_s) / (I_0 / I + 1),
 
 weighted least squares (linear in mu_s and mu_2 for a given I_0; I_0 by a search on a log grid),
 and phi(I) by a straight line phi_c - a I. The gain of the pressure control is proportional to
-the shear rate (``gain``): an error is corrected over a fixed shear strain (0.05 for an elastic
-response), not a fixed time; a fixed gain would either take tens of strain units to correct a
+the shear rate (``gain``): an error is corrected over a fixed shear strain (0.01 for an elastic
+response of stiffness kn / d; the flowing pack is far softer and takes ~0.2), not a fixed time; a fixed gain would either take tens of strain units to correct a
 guess of phi by a per cent at I = 0.3 or chase the pressure's fluctuations at I = 1e-3.
 
 Strain: 0.35 of transient and 0.5 measured at every I (steps per unit strain grow as
-sqrt(kn / (p d)) / I: about 960,000 at I = 1e-3). The total stays below 0.89 because of a
+sqrt(kn / (p d)) / I: about 960,000 at I = 1e-3). The total stays below 0.91 because of a
 Lees-Edwards bug of the core met at a strain of 0.98 (``strain_limit``, docs/rheology.md).
 
 Run:  python examples/mu_of_i.py [--quick] [--threads 2] [--out DIR] [--figure PNG | --no-figure]
@@ -43,6 +44,7 @@ against I.
 
 from __future__ import annotations
 
+import functools
 import math
 import os
 import sys
@@ -63,7 +65,7 @@ FRICTION, RESTITUTION = shear.MU, shear.E_REST
 INERTIAL = np.logspace(-3.0, math.log10(0.3), 6)
 SAMPLE = 0.01                      # strain between stress samples
 BLOCKS = 5                         # blocks of the measurement for the error bars
-SPHERES = 2000
+SPHERES = 4000
 
 # Jop, Forterre & Pouliquen, Nature 441 (2006) 727: glass beads (d = 0.53 mm) flowing down a
 # rough incline, mu_s = tan 20.9 deg, mu_2 = tan 32.76 deg, I_0 = 0.279.
@@ -72,10 +74,12 @@ JOP = {"mu_s": math.tan(math.radians(20.9)), "mu_2": math.tan(math.radians(32.76
 
 def plan(inertial: float, quick: bool = False) -> dict:
     """Spheres and strains for one point: (spheres, transient strain, measured strain). The
-    total stays below ``strain_limit`` (0.89 for the 2,000-sphere cube)."""
+    total stays below ``strain_limit`` (0.91 for the 4,000-sphere cube). The pressure control
+    starts after ``constant_volume``: until the shear has built a contact network p is ~0, and
+    the control would compress the box past the steady solid fraction."""
     if quick:
-        return {"spheres": 500, "settle": 0.2, "measure": 0.3}
-    return {"spheres": SPHERES, "settle": 0.35, "measure": 0.5}
+        return {"spheres": 500, "constant_volume": 0.1, "settle": 0.2, "measure": 0.3}
+    return {"spheres": SPHERES, "constant_volume": 0.15, "settle": 0.35, "measure": 0.5}
 
 
 def strain_limit(length_flow: float, length_gradient: float) -> float:
@@ -93,7 +97,7 @@ def phi_guess(inertial: float) -> float:
     return 0.59 - 0.15 * inertial
 
 
-RELAX_STRAIN = 0.05                # strain over which the pressure control corrects an error
+RELAX_STRAIN = 0.01                # strain over which the pressure control corrects an error
 
 
 def gain(rate: float) -> float:
@@ -108,9 +112,15 @@ def shear_rate(inertial: float, pressure: float = PRESSURE) -> float:
     return inertial * math.sqrt(pressure / RHO) / D
 
 
-def fit_mu(inertial, mu, error=None):
+I0_RANGE = (1e-3, 1.0)             # the fit's bounds on I_0 (published values: ~0.3)
+
+
+def fit_mu(inertial, mu, error=None, i0_range=I0_RANGE):
     """Jop et al.'s law fitted to (I, mu): (mu_s, mu_2, I_0). Weighted least squares, linear in
-    mu_s and mu_2 for a given I_0, I_0 searched on a log grid (1e-3 to 10) and refined."""
+    mu_s and mu_2 for a given I_0, I_0 searched on a log grid within ``i0_range`` and refined.
+    (Points that do not reach the law's plateau leave mu_2 and I_0 degenerate, the law then
+    being mu_s + (mu_2 - mu_s) I / I_0: the bound keeps I_0 in the published range, and the
+    initial slope (mu_2 - mu_s) / I_0 is what such points determine.)"""
     i, m = np.asarray(inertial, float), np.asarray(mu, float)
     w = np.ones_like(m) if error is None else 1.0 / np.maximum(np.asarray(error, float), 1e-3)
 
@@ -120,10 +130,11 @@ def fit_mu(inertial, mu, error=None):
         coef, *_ = np.linalg.lstsq(a, m * w, rcond=None)
         return float(np.sum((a @ coef - m * w) ** 2)), coef
 
-    grid = np.logspace(-3, 1, 401)
+    lo, hi = i0_range
+    grid = np.logspace(math.log10(lo), math.log10(hi), 301)
     best = min(grid, key=lambda g: solve(g)[0])
     for step in (1.02, 1.001):  # refine around the best
-        grid = best * step ** np.arange(-25, 26)
+        grid = np.clip(best * step ** np.arange(-25, 26), lo, hi)
         best = min(grid, key=lambda g: solve(g)[0])
     coef = solve(best)[1]
     return float(coef[0]), float(coef[1]), float(best)
@@ -134,9 +145,16 @@ def mu_law(inertial, mu_s, mu_2, i_0):
     return mu_s + (mu_2 - mu_s) / (i_0 / i + 1.0)
 
 
-def cell(spheres: int, phi: float, rate: float, inertial: float, threads, seed: int = 1):
-    """The sheared, pressure-controlled cube of ``spheres`` at solid fraction ``phi``."""
-    state = shear.make_packing(spheres, 0.6, threads=threads, seed=seed, log=lambda *a: None)
+@functools.lru_cache(maxsize=2)
+def packing(spheres: int, threads, seed: int = 1) -> dict:
+    """``spheres`` in a periodic cube at solid fraction 0.6 (benchmarks/shear_lammps.py's:
+    random sequential addition, then scaled in steps with frictionless damped relaxations)."""
+    return shear.make_packing(spheres, 0.6, threads=threads, seed=seed, log=lambda *a: None)
+
+
+def cell(spheres: int, phi: float, rate: float, threads, seed: int = 1):
+    """The sheared cube of ``spheres`` at solid fraction ``phi`` (no pressure control yet)."""
+    state = packing(spheres, threads, seed)
     scale = (0.6 / phi) ** (1.0 / 3.0)
     x, length = state["x"] * scale, state["L"] * scale
     sim = shear.new_simulation(threads, initial_overlap=1.0)
@@ -144,7 +162,6 @@ def cell(spheres: int, phi: float, rate: float, inertial: float, threads, seed: 
                     velocities=shear.shear_profile(x, length, rate))
     sim.set_box((0.0, 0.0, 0.0), (length, length, length), periodic="xyz")
     sim.set_shear(rate, flow="x", gradient="z")
-    sim.set_pressure(PRESSURE, gain(rate), axis="z")
     return sim
 
 
@@ -152,7 +169,7 @@ def measure_point(inertial: float, quick: bool, threads) -> dict:
     """Shear one cell at the inertial number ``inertial``; its samples and averages."""
     p = plan(inertial, quick)
     rate = shear_rate(inertial)
-    sim = cell(p["spheres"], phi_guess(inertial), rate, inertial, threads)
+    sim = cell(p["spheres"], phi_guess(inertial), rate, threads)
     steps = max(1, round(SAMPLE / (rate * sim.dt)))  # steps per sample
     v_sphere = 4.0 / 3.0 * math.pi * R ** 3
     t0 = time.perf_counter()
@@ -162,7 +179,10 @@ def measure_point(inertial: float, quick: bool, threads) -> dict:
     if p["settle"] + p["measure"] > 0.98 * strain_limit(box[0], box[2]):
         raise ValueError(f"a strain of {p['settle'] + p['measure']} reaches the slide the core mishandles "
                          f"(limit {strain_limit(box[0], box[2]):.3f}): see docs/rheology.md")
+    control = round(p["constant_volume"] / SAMPLE)
     for k in range(total):
+        if k == control:
+            sim.set_pressure(PRESSURE, gain(rate), axis="z")
         sim.run(steps=steps)
         s = sim.stress()
         lo, hi = sim.box.lower, sim.box.upper
@@ -178,7 +198,7 @@ def measure_point(inertial: float, quick: bool, threads) -> dict:
     p_mean = float(pzz[used].mean())
     return {
         "target_inertial": float(inertial), "spheres": p["spheres"], "rate": rate, "dt": sim.dt,
-        "settle_strain": p["settle"], "measured_strain": p["measure"], "steps": int(total * steps),
+        "constant_volume_strain": p["constant_volume"], "settle_strain": p["settle"], "measured_strain": p["measure"], "steps": int(total * steps),
         "gain": gain(rate), "phi_start": phi_guess(inertial),
         "inertial": rate * D / math.sqrt(p_mean / RHO),
         "pressure": p_mean, "mean_pressure": float(pmean[used].mean()),
@@ -214,7 +234,8 @@ def main(argv=None) -> dict:
     a, phi_c = np.polyfit(i, [pt["phi"] for pt in points], 1)
     summary = {
         "points": points,
-        "fit": {"mu_s": mu_s, "mu_2": mu_2, "I_0": i_0},
+        "fit": {"mu_s": mu_s, "mu_2": mu_2, "I_0": i_0, "slope": (mu_2 - mu_s) / i_0,
+                "I_0_at_bound": bool(min(abs(math.log(i_0 / b)) for b in I0_RANGE) < 1e-9)},
         "phi_fit": {"phi_c": float(phi_c), "a": float(-a)},
         "published": {"Jop2006": JOP},
         "pressure_target": PRESSURE, "kappa": KAPPA, "friction": FRICTION, "restitution": RESTITUTION,
@@ -244,8 +265,9 @@ def plot(out: str, png: str) -> None:
     left.errorbar(i, [p["mu"] for p in pts], yerr=[p["mu_error"] for p in pts], fmt="o", color="C0",
                   capsize=3, label=r"tsubu, $\mu = \sigma_{xz} / (-\sigma_{zz})$")
     f = s["fit"]
+    bound = " (its bound)" if f.get("I_0_at_bound") else ""
     left.plot(fine, mu_law(fine, f["mu_s"], f["mu_2"], f["I_0"]), color="C0",
-              label=rf"fit: $\mu_s$={f['mu_s']:.3f}, $\mu_2$={f['mu_2']:.3f}, $I_0$={f['I_0']:.3f}")
+              label=rf"fit: $\mu_s$={f['mu_s']:.3f}, $\mu_2$={f['mu_2']:.2f}, $I_0$={f['I_0']:.2f}{bound}")
     j = s["published"]["Jop2006"]
     left.plot(fine, mu_law(fine, j["mu_s"], j["mu_2"], j["I_0"]), "--", color="C3",
               label="Jop et al. 2006 (glass beads, incline)")
