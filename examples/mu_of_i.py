@@ -19,9 +19,9 @@ numbers from 1e-3 to 0.3 (log-spaced) the cell is
   one the literature divides by), the mean pressure -trace(sigma)/3 as well, and the solid
   fraction phi = N V_sphere / V_box.
 
-mu = <tau> / <p> and I = rate d / sqrt(<p> / rho) use the measured mean p (2-17 % above the
-target in the full run: docs/rheology.md). The error bars are the standard deviation of mu (and phi) over ``BLOCKS`` equal
-blocks of the measurement. The points are fitted by Jop, Forterre & Pouliquen's (2006) law,
+mu = <tau> / <p> and I = rate d / sqrt(<p> / rho) use the measured mean p (within 5 % of the
+target in the full run: docs/rheology.md). The error bars are the standard deviation of mu (and
+phi) over ``BLOCKS`` equal blocks of the measurement. The points are fitted by Jop, Forterre & Pouliquen's (2006) law,
 
     mu(I) = mu_s + (mu_2 - mu_s) / (I_0 / I + 1),
 
