@@ -329,3 +329,40 @@ def test_chute_steadiness_test_tells_a_plateau_from_a_rise():
     flat, change = module.steady(t, rising)
     assert not flat and change == pytest.approx(0.1, rel=0.1)
     assert not module.steady(t[:10], np.full(10, 3.0))[0]
+
+
+def test_mu_of_i_quick_cell_flows_at_the_target_pressure(tmp_path):
+    """The quick mu(I) run (500 spheres, I = 0.03, 0.1, 0.3, strain 0.5): each cell shears at
+    about the target normal stress, mu = tau/p is a granular friction that grows with I, the
+    solid fraction falls with I, and the output holds what the figure needs."""
+    module = load_example("mu_of_i")
+    s = module.main(["--quick", "--no-figure", "--threads", "1", "--out", str(tmp_path)])
+    points = s["points"]
+    assert [p["target_inertial"] for p in points] == [0.03, 0.1, 0.3]
+    for p in points:
+        # The pressure control holds -sigma_zz near 5 kPa (it is still settling in so short a run).
+        assert 0.5 < p["pressure"] / s["pressure_target"] < 2.0, p
+        assert 0.6 < p["inertial"] / p["target_inertial"] < 1.5, p
+        # Shear stress with the sign of the rate; mu within the range of dense granular flows.
+        assert p["tau"] > 0 and 0.25 < p["mu"] < 0.8, p
+        assert 0.5 < p["phi"] < 0.62 and p["mu_error"] >= 0 and p["phi_error"] >= 0, p
+        # The tensor is symmetric within the flow's noise.
+        assert abs(p["tau_zx"] - p["tau"]) < 0.2 * p["tau"], p
+    assert points[-1]["mu"] > points[0]["mu"] + 0.05
+    assert points[-1]["phi"] < points[0]["phi"] - 0.01
+    data = read_npz(tmp_path / "mu_of_i_2.npz")
+    assert data["samples"].shape == (round(0.5 / module.SAMPLE), 6)
+    assert json.loads((tmp_path / "mu_of_i.json").read_text())["fit"] == s["fit"]
+    draw_figure(module, tmp_path)
+
+
+def test_mu_of_i_fit_recovers_the_law():
+    module = load_example("mu_of_i")
+    i = np.logspace(-3, math.log10(0.3), 6)
+    mu = module.mu_law(i, 0.38, 0.64, 0.28)
+    mu_s, mu_2, i_0 = module.fit_mu(i, mu)
+    assert math.isclose(mu_s, 0.38, rel_tol=1e-3) and math.isclose(mu_2, 0.64, rel_tol=1e-3)
+    assert math.isclose(i_0, 0.28, rel_tol=1e-2)
+    # The rate that makes I: I = rate d / sqrt(p / rho).
+    rate = module.shear_rate(0.01, 5000.0)
+    assert math.isclose(rate * module.D / math.sqrt(5000.0 / module.RHO), 0.01, rel_tol=1e-12)

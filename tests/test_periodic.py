@@ -230,3 +230,32 @@ def test_a_contact_across_a_face_is_drawn_to_the_nearest_image():
     np.testing.assert_allclose(c["branch"][0], [-0.00199, 0, 0], atol=1e-7)
     net = tsubu.output.contact_data(sim)
     assert np.linalg.norm(net["end"][0] - net["start"][0]) == pytest.approx(0.00199, abs=1e-7)
+
+
+def _pair_across_the_sheared_corner(slide_fraction: float, x_low: float):
+    """Two spheres 1.8 mm apart (d = 2 mm) whose minimum image crosses a sheared z face: A low
+    (z = 0.5 mm) at x = ``x_low``, B high (z = L - 0.5 mm) placed so that its image below (x -
+    slide, modulo L) lies 1.5 mm beyond A along x. The slide is grown to ``slide_fraction`` of
+    the box with the spheres far apart, then they are put in place and stepped once. Returns
+    the number of contacts found."""
+    length, rate = 0.02, 100.0
+    sim = tsubu.Simulation(gravity=(0, 0, 0), initial_overlap=1.0)
+    sim.add_spheres([(0.005, 0.01, 0.005), (0.015, 0.01, 0.015)], R, frictional())
+    sim.set_box((0, 0, 0), (length,) * 3, "xyz")
+    sim.set_shear(rate, "x", "z")
+    sim.run(time=slide_fraction / rate)
+    slide = sim.box.shear_offset
+    sim.positions = [(x_low, 0.01, 0.5e-3), ((x_low + 1.5e-3 + slide) % length, 0.01, length - 0.5e-3)]
+    sim.velocities = np.zeros((2, 3))
+    sim.run(steps=1)
+    return len(sim.contacts()["i"])
+
+
+@pytest.mark.parametrize("slide_fraction, x_low", [(0.5, 0.010), (0.97, 0.010), (0.5, 0.0197),
+                                                    (0.97, 0.0197)])
+def test_lees_edwards_finds_a_contact_across_the_sheared_faces(slide_fraction, x_low):
+    # (0.97, 0.0197): the slide is 0.97 of the box and A sits 0.3 mm below the upper x face, so
+    # B's image below is x_B - slide + 2 L, just beyond that face. Before d6f610a the ghosts took
+    # flow images -2..1 only and this contact was never found (examples/mu_of_i.py met it as an
+    # overlap of 0.63 r at a strain of 0.98).
+    assert _pair_across_the_sheared_corner(slide_fraction, x_low) == 1
