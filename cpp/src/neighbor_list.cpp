@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <type_traits>
 #include <vector>
 
 namespace tsubu {
@@ -112,47 +113,54 @@ void NeighborList::build_verlet(const Context& c, const CellGrid& grid, double s
   const std::array<long, 3>& dims = grid.dims;
   const Index halo = static_cast<Index>(n);  // the first ghost row
   const Index* ghost_start = ghost_cell_start_.empty() ? nullptr : ghost_cell_start_.data();
-  auto for_each_neighbor = [&](Index i, auto&& visit) {
-    const Vec3 xi = vec3(x, i);
-    auto visit_range = [&](Index j0, Index j1) {
-      for (Index j = j0; j < j1; ++j) {
-        if (id[j] <= id[i]) continue;  // (a ghost has its source's id: each pair once)
-        const double cut = r[i] + r[j] + skin_now;
-        if (c.domain.displacement(xi, vec3(x, j)).squaredNorm() < cut * cut) visit(j);
+  // (The ghosts' loop is compiled in only where there are ghosts: an open scene's rebuild
+  // pays nothing for it.)
+  auto build = [&](auto ghosts) {
+    constexpr bool kGhosts = decltype(ghosts)::value;
+    auto for_each_neighbor = [&](Index i, auto&& visit) {
+      const Vec3 xi = vec3(x, i);
+      auto visit_range = [&](Index j0, Index j1) {
+        for (Index j = j0; j < j1; ++j) {
+          if (id[j] <= id[i]) continue;  // (a ghost has its source's id: each pair once)
+          const double cut = r[i] + r[j] + skin_now;
+          if (c.domain.displacement(xi, vec3(x, j)).squaredNorm() < cut * cut) visit(j);
+        }
+      };
+      auto visit_cell = [&](long cell) {
+        visit_range(cell_start_[cell], cell_start_[cell + 1]);
+        if constexpr (kGhosts) visit_range(halo + ghost_start[cell], halo + ghost_start[cell + 1]);
+      };
+      if (grid.sparse) {
+        for_each_cell_around(grid, cell_of(grid, &x[3 * i]), visit_cell);
+        return;
       }
+      long cc[3];  // the dense grid, indexed directly (the common case: kept tight)
+      for (int d = 0; d < 3; ++d)
+        cc[d] = std::clamp(static_cast<long>((xi[d] - lo_cell[d]) / h), 0L, dims[d] - 1);
+      for (long cz = std::max(cc[2] - 1, 0L); cz <= std::min(cc[2] + 1, dims[2] - 1); ++cz)
+        for (long cy = std::max(cc[1] - 1, 0L); cy <= std::min(cc[1] + 1, dims[1] - 1); ++cy)
+          for (long cx = std::max(cc[0] - 1, 0L); cx <= std::min(cc[0] + 1, dims[0] - 1); ++cx)
+            visit_cell((cz * dims[1] + cy) * dims[0] + cx);
     };
-    auto visit_cell = [&](long cell) {
-      visit_range(cell_start_[cell], cell_start_[cell + 1]);
-      if (ghost_start) visit_range(halo + ghost_start[cell], halo + ghost_start[cell + 1]);
-    };
-    if (grid.sparse) {
-      for_each_cell_around(grid, cell_of(grid, &x[3 * i]), visit_cell);
-      return;
+    const Index ni = static_cast<Index>(n);
+#pragma omp parallel for schedule(static) num_threads(c.threads) if (c.parallel)
+    for (Index i = 0; i < ni; ++i) {
+      Index count = 0;
+      for_each_neighbor(i, [&](Index) { ++count; });
+      pair_offset[i + 1] = count;
     }
-    long cc[3];  // the dense grid, indexed directly (the common case: kept tight)
-    for (int d = 0; d < 3; ++d)
-      cc[d] = std::clamp(static_cast<long>((xi[d] - lo_cell[d]) / h), 0L, dims[d] - 1);
-    for (long cz = std::max(cc[2] - 1, 0L); cz <= std::min(cc[2] + 1, dims[2] - 1); ++cz)
-      for (long cy = std::max(cc[1] - 1, 0L); cy <= std::min(cc[1] + 1, dims[1] - 1); ++cy)
-        for (long cx = std::max(cc[0] - 1, 0L); cx <= std::min(cc[0] + 1, dims[0] - 1); ++cx)
-          visit_cell((cz * dims[1] + cy) * dims[0] + cx);
+    for (std::size_t i = 0; i < n; ++i) pair_offset[i + 1] += pair_offset[i];
+    pair_partner.resize(static_cast<std::size_t>(pair_offset[n]));
+#pragma omp parallel for schedule(static) num_threads(c.threads) if (c.parallel)
+    for (Index i = 0; i < ni; ++i) {
+      Index e = pair_offset[i];
+      for_each_neighbor(i, [&](Index j) { pair_partner[e++] = j; });
+      insertion_sort(pair_partner.data() + pair_offset[i], pair_partner.data() + pair_offset[i + 1],
+                     [&](Index j) { return id[j]; });
+    }
   };
-  const Index ni = static_cast<Index>(n);
-#pragma omp parallel for schedule(static) num_threads(c.threads) if (c.parallel)
-  for (Index i = 0; i < ni; ++i) {
-    Index count = 0;
-    for_each_neighbor(i, [&](Index) { ++count; });
-    pair_offset[i + 1] = count;
-  }
-  for (std::size_t i = 0; i < n; ++i) pair_offset[i + 1] += pair_offset[i];
-  pair_partner.resize(static_cast<std::size_t>(pair_offset[n]));
-#pragma omp parallel for schedule(static) num_threads(c.threads) if (c.parallel)
-  for (Index i = 0; i < ni; ++i) {
-    Index e = pair_offset[i];
-    for_each_neighbor(i, [&](Index j) { pair_partner[e++] = j; });
-    insertion_sort(pair_partner.data() + pair_offset[i], pair_partner.data() + pair_offset[i + 1],
-                   [&](Index j) { return id[j]; });
-  }
+  if (ghost_start) build(std::true_type{});
+  else build(std::false_type{});
 }
 
 void NeighborList::build_walls(const Context& c, double skin_now, bool transfer, std::size_t old_n) {
