@@ -1071,7 +1071,7 @@ class Simulation:
         axis : str
             The controlled axis, periodic (default ``"z"``, the gradient of a default shear).
         max_strain_rate : float, optional
-            Cap on |d ln L / dt| [1/s]. Default: 0.01 / :meth:`contact_duration`.
+            Cap on the magnitude of d ln L / dt [1/s]. Default: 0.01 / :meth:`contact_duration`.
 
         Raises
         ------
