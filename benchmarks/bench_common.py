@@ -51,3 +51,25 @@ def parse_size(s: str) -> int:
     if v < 1 or v != int(v):
         raise argparse.ArgumentTypeError(f"a size must be a positive whole number, got {s!r}")
     return int(v)
+
+
+def load_state(path: str) -> dict:
+    """A cached state (``np.savez``): arrays as arrays, 0-d entries as floats."""
+    import numpy as np
+    with np.load(path) as z:
+        return {k: (z[k] if z[k].ndim else float(z[k])) for k in z.files}
+
+
+def run_child(script: str, arguments: list[str]) -> dict:
+    """Runs ``script`` with ``arguments`` in a fresh one-thread process and returns the JSON it
+    printed on its ``RESULT`` line (the paired benchmarks' child runs)."""
+    import json
+    import subprocess
+    import sys
+    env = dict(os.environ, OMP_NUM_THREADS="1")
+    p = subprocess.run([sys.executable, os.path.abspath(script)] + arguments, capture_output=True,
+                       text=True, env=env)
+    line = next((l for l in p.stdout.splitlines() if l.startswith("RESULT ")), None)
+    if p.returncode != 0 or line is None:
+        raise RuntimeError(f"tsubu run failed (exit {p.returncode}):\n{p.stdout[-2000:]}{p.stderr[-3000:]}")
+    return json.loads(line[len("RESULT "):])

@@ -87,7 +87,7 @@ import time
 
 import numpy as np
 
-from bench_common import machine, system_busy_s
+from bench_common import load_state, machine, run_child, system_busy_s
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 DECK = os.path.join(HERE, "liggghts", "in.hopper")
@@ -236,8 +236,7 @@ def packing(n: int, workdir: str, threads=None, log=_say) -> dict:
     """The settled packing of ``n`` spheres, from ``workdir``'s cache or made (and cached) now."""
     path = packing_path(n, workdir)
     if os.path.exists(path):
-        with np.load(path) as z:
-            return {k: (z[k] if z[k].ndim else float(z[k])) for k in z.files}
+        return load_state(path)
     log(f"filling the hopper with {n} spheres (cached as {path}) ...")
     state = fill_packing(n, threads=threads, log=log)
     tmp = path + ".tmp.npz"
@@ -395,21 +394,14 @@ def discharge_rate(t, m, fit_from, n0: int) -> dict:
 
 def _child(args) -> None:
     """--child-tsubu: one tsubu run in this (fresh) process, JSON on stdout."""
-    with np.load(args.child_tsubu) as z:
-        state = {k: (z[k] if z[k].ndim else float(z[k])) for k in z.files}
+    state = load_state(args.child_tsubu)
     r = run_tsubu(state, args.steps, args.every, args.warmup, threads=1, divisions=args.divisions)
     print("RESULT " + json.dumps(r))
 
 
 def spawn_tsubu(args, cache: str) -> dict:
-    env = dict(os.environ, OMP_NUM_THREADS="1")
-    cmd = [sys.executable, os.path.abspath(__file__), "--child-tsubu", cache, "--steps", str(args.steps),
-           "--every", str(args.every), "--warmup", str(args.warmup), "--divisions", str(args.divisions)]
-    p = subprocess.run(cmd, capture_output=True, text=True, env=env)
-    line = next((l for l in p.stdout.splitlines() if l.startswith("RESULT ")), None)
-    if p.returncode != 0 or line is None:
-        raise RuntimeError(f"tsubu run failed (exit {p.returncode}):\n{p.stdout[-2000:]}{p.stderr[-3000:]}")
-    return json.loads(line[len("RESULT "):])
+    return run_child(__file__, ["--child-tsubu", cache, "--steps", str(args.steps), "--every", str(args.every),
+                                "--warmup", str(args.warmup), "--divisions", str(args.divisions)])
 
 
 def main(argv=None) -> int:

@@ -90,7 +90,7 @@ import time
 
 import numpy as np
 
-from bench_common import machine, system_busy_s
+from bench_common import load_state, machine, run_child, system_busy_s
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 DECK = os.path.join(HERE, "lammps", "in.shear")
@@ -197,8 +197,7 @@ def packing(n: int, workdir: str, phi: float = PHI, threads=None, log=_say) -> d
     """The packing of ``n`` spheres, from ``workdir``'s cache or made (and cached) now."""
     path = packing_path(n, workdir, phi)
     if os.path.exists(path):
-        with np.load(path) as z:
-            return {k: (z[k] if z[k].ndim else float(z[k])) for k in z.files}
+        return load_state(path)
     log(f"packing {n} spheres at solid fraction {phi} (cached as {path}) ...")
     state = make_packing(n, phi, threads=threads, log=log)
     tmp = path + ".tmp.npz"
@@ -364,21 +363,14 @@ def inertial_number(rate: float, p: float) -> float:
 
 def _child(args) -> None:
     """--child-tsubu: one tsubu run in this (fresh) process, JSON on stdout."""
-    with np.load(args.child_tsubu) as z:
-        state = {k: (z[k] if z[k].ndim else float(z[k])) for k in z.files}
+    state = load_state(args.child_tsubu)
     r = run_tsubu(state, args.rate, args.steps, args.every, args.warmup, threads=1)
     print("RESULT " + json.dumps(r))
 
 
 def spawn_tsubu(args, cache: str) -> dict:
-    env = dict(os.environ, OMP_NUM_THREADS="1")
-    cmd = [sys.executable, os.path.abspath(__file__), "--child-tsubu", cache, "--steps", str(args.steps),
-           "--every", str(args.every), "--warmup", str(args.warmup), "--rate", repr(args.rate)]
-    p = subprocess.run(cmd, capture_output=True, text=True, env=env)
-    line = next((l for l in p.stdout.splitlines() if l.startswith("RESULT ")), None)
-    if p.returncode != 0 or line is None:
-        raise RuntimeError(f"tsubu run failed (exit {p.returncode}):\n{p.stdout[-2000:]}{p.stderr[-3000:]}")
-    return json.loads(line[len("RESULT "):])
+    return run_child(__file__, ["--child-tsubu", cache, "--steps", str(args.steps), "--every", str(args.every),
+                                "--warmup", str(args.warmup), "--rate", repr(args.rate)])
 
 
 def main(argv=None) -> int:
