@@ -2,7 +2,6 @@
 docs/periodic.md): what the table builds (the same bits as the Python API's calls), its errors,
 the schema, the example scene, and runs resumed from a checkpoint of a periodic scene."""
 
-import copy
 import json
 import math
 import pathlib
@@ -14,6 +13,8 @@ import pytest
 import tsubu
 from tsubu import fill, scene
 from tsubu.__main__ import main
+
+from test_scene import changed  # (a deep copy with one key set or removed)
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 DOCS = ROOT / "docs"
@@ -60,18 +61,6 @@ def errors_of(data):
     with pytest.raises(scene.SceneError) as info:
         scene.scene_from_dict(data)
     return info.value.lines()
-
-
-def changed(data, path, value):
-    data = copy.deepcopy(data)
-    where = data
-    for key in path[:-1]:
-        where = where[key]
-    if value is scene.MISSING:
-        del where[path[-1]]
-    else:
-        where[path[-1]] = value
-    return data
 
 
 def same_state(a, b):
