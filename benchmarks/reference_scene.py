@@ -217,6 +217,36 @@ def build_dense_bed(threads=None, floor_velocity: float = 0.0, slip_rule: str = 
     return sim
 
 
+def tiled_bed_state(tiles: int, path: str = DENSE_BED) -> dict:
+    """The settled bed tiled ``tiles`` x ``tiles`` times in x and y (shared/bench/device/tile.py:
+    copy (a, b) shifted by (a Lx, b Ly), copies in the order a, then b), as x, v, w (N, 3) arrays
+    and the box's ``lx``, ``ly``."""
+    st = dense_bed_state(path)
+    lx, ly = box(len(st["x"]))
+    shift = np.array([[a * lx, b * ly, 0.0] for a in range(tiles) for b in range(tiles)])
+    x = (st["x"][None, :, :] + shift[:, None, :]).reshape(-1, 3)
+    k = tiles * tiles
+    return {"x": x, "v": np.tile(st["v"], (k, 1)), "w": np.tile(st["w"], (k, 1)),
+            "lx": tiles * lx, "ly": tiles * ly}
+
+
+def build_tiled_bed(tiles: int, threads=None, floor_velocity: float = 0.05, slip_rule: str = "truncate"):
+    """The tiled dense bed of shared/bench/device (issue 29's scaling scene) as a
+    ``tsubu.Simulation``: ``tiles`` x ``tiles`` copies of the settled bed (tiles = 4: N = 160,000 in
+    a 0.088 m x 0.088 m box), five walls around the whole, the floor sliding along +x at
+    ``floor_velocity`` [m/s], zero tangential history."""
+    st = tiled_bed_state(tiles)
+    mat = material()
+    sim = new_simulation(threads, slip_rule)
+    sim.add_spheres(st["x"], R, mat, velocities=st["v"], angular_velocities=st["w"])
+    add_walls(sim, st["lx"], st["ly"], mat)
+    if floor_velocity:
+        sim.set_plane_motion(0, velocity=(floor_velocity, 0.0, 0.0))
+    sim.reference_scene = {"n": len(st["x"]), "lx": st["lx"], "ly": st["ly"], "walls": 5,
+                           "floor_velocity": floor_velocity, "tiles": tiles}
+    return sim
+
+
 # ---------------------------------------------------------------- end-state summary
 def _pairs_within(x: np.ndarray, cutoff: float) -> np.ndarray:
     """Index pairs (i < j) with |x_i - x_j| < cutoff: scipy's cKDTree if installed, else a

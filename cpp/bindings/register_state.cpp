@@ -208,6 +208,17 @@ void register_state(py::class_<Sim>& cls) {
                d[tsubu::phase_name(tsubu::Phase(p))] = s.phase_seconds()[p];
              return d;
            })
+      .def("region_seconds",
+           [](const Sim& s) {
+             py::dict d;
+             for (int r = 0; r < int(tsubu::Region::Count); ++r) {
+               const tsubu::RegionTimes& t = s.region_seconds()[r];
+               py::dict e;
+               e["wall"] = t.wall, e["slowest"] = t.slowest, e["mean"] = t.mean, e["count"] = t.count;
+               d[tsubu::region_name(tsubu::Region(r))] = e;
+             }
+             return d;
+           })
       .def("memory_bytes",
            [](const Sim& s) {
              py::dict d;

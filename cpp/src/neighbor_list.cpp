@@ -6,10 +6,68 @@
 #include <cmath>
 #include <type_traits>
 #include <vector>
+#ifdef _OPENMP
+#include <omp.h>
+#endif
 
 namespace tsubu {
 
 namespace {
+
+// The k in [0, n) that pass `keep`, in order, into `out`: counted in parts, then written.
+template <class Keep>
+void filter(long n, Keep&& keep, Array<Index>& out, const NeighborList::Context& c) {
+  const int most = c.parallel ? std::max(1, c.threads) : 1;
+  if (most == 1) {  // one pass
+    out.resize(static_cast<std::size_t>(n));
+    Index count = 0;
+    for (long k = 0; k < n; ++k) {
+      out[count] = static_cast<Index>(k);
+      count += keep(k) ? 1 : 0;
+    }
+    out.resize(static_cast<std::size_t>(count));
+    return;
+  }
+  std::vector<Index> start(static_cast<std::size_t>(most) + 1, 0);
+#pragma omp parallel num_threads(most) if (most > 1)
+  {
+#ifdef _OPENMP
+    const int t = omp_get_thread_num(), nt = omp_get_num_threads();
+#else
+    const int t = 0, nt = 1;
+#endif
+    const long lo = n * t / nt, hi = n * (t + 1) / nt;
+    Index count = 0;
+    for (long k = lo; k < hi; ++k) count += keep(k) ? 1 : 0;
+    start[t + 1] = count;
+#pragma omp barrier
+#pragma omp single
+    {
+      for (int u = 0; u < nt; ++u) start[u + 1] += start[u];
+      out.resize(static_cast<std::size_t>(start[nt]));
+    }
+    Index at = start[t];
+    for (long k = lo; k < hi; ++k)
+      if (keep(k)) out[at++] = static_cast<Index>(k);
+  }
+}
+
+// a[k] = 0 for every k, the rows shared between the threads.
+void zero(Array<double>& a, const NeighborList::Context& c) {
+  const long size = static_cast<long>(a.size());
+  double* p = a.data();
+#pragma omp parallel for schedule(static) num_threads(c.threads) if (c.parallel)
+  for (long k = 0; k < size; ++k) p[k] = 0.0;
+}
+
+// The entries' touch flags from their overlaps.
+void mark_touching(EntryStore& st, const NeighborList::Context& c) {
+  const long size = static_cast<long>(st.overlap.size());
+  const double* o = st.overlap.data();
+  std::uint8_t* t = st.touch.data();
+#pragma omp parallel for schedule(static) num_threads(c.threads) if (c.parallel)
+  for (long q = 0; q < size; ++q) t[q] = touching(c.law, o[q]);
+}
 
 template <class Key>
 void insertion_sort(Index* first, Index* last, Key key) {
@@ -47,7 +105,8 @@ void NeighborList::rebuild(const Context& c, double skin_now, bool keep_history,
   const bool transfer = keep_history && old_n > 0 && wall_offset.size() == old_n + 1;
   ContactStore& cs = c.contacts;
   if (transfer) {
-    cs.stash_pair_state(near_offset, near_partner, c.particles.arrays().id, c.law);
+    cs.stash_pair_state(near_offset, near_partner, c.particles.arrays().id, c.law,
+                               c.parallel ? c.threads : 1);
     cs.stash_wall_offset.swap(wall_offset);
     cs.stash_wall_index.swap(wall_index);
     cs.stash_wall_element.swap(wall_element);
@@ -62,7 +121,7 @@ void NeighborList::rebuild(const Context& c, double skin_now, bool keep_history,
     if (wrap) c.domain.wrap(c.particles.arrays(), c.particles.size());
     bin();
   }
-  if (c.particles.size() > 0) c.particles.permute(perm_, scratch_);
+  if (c.particles.size() > 0) c.particles.permute(perm_, scratch_, c.parallel ? c.threads : 1);
   if (periodic) make_ghosts(c, grid);
   else ghost_cell_start_.clear();
 
@@ -169,16 +228,20 @@ void NeighborList::build_walls(const Context& c, double skin_now, bool transfer,
   ParticleStore& ps = c.particles.arrays();
   const double* x = ps.x.data();
   const double* r = ps.radius.data();
+  const long ni = static_cast<long>(n);
   wall_offset.assign(n + 1, 0);
-  for (std::size_t i = 0; i < n; ++i) {
+#pragma omp parallel for schedule(static) num_threads(c.threads) if (c.parallel)
+  for (long i = 0; i < ni; ++i) {
     Index count = 0;
     c.walls.for_each_near(vec3(x, i), r[i], skin_now, [&](Index, Index) { ++count; });
-    wall_offset[i + 1] = wall_offset[i] + count;
+    wall_offset[i + 1] = count;
   }
+  for (std::size_t i = 0; i < n; ++i) wall_offset[i + 1] += wall_offset[i];
   wall_index.resize(static_cast<std::size_t>(wall_offset[n]));
   wall_element.resize(wall_index.size());
   wall_owner.resize(wall_index.size());
-  for (std::size_t i = 0; i < n; ++i) {
+#pragma omp parallel for schedule(static) num_threads(c.threads) if (c.parallel)
+  for (long i = 0; i < ni; ++i) {
     Index e = wall_offset[i];
     c.walls.for_each_near(vec3(x, i), r[i], skin_now, [&](Index w, Index element) {
       wall_owner[e] = static_cast<Index>(i);
@@ -190,12 +253,13 @@ void NeighborList::build_walls(const Context& c, double skin_now, bool transfer,
   cs.size(near_partner.size(), wall_index.size());
   if (c.walls.has_meshes()) wall_tangent.resize(wall_index.size());
   else wall_tangent.clear();
-  for (Array<double>* a : cs.walls.carried()) std::fill(a->begin(), a->end(), 0.0);
+  for (Array<double>* a : cs.walls.carried()) zero(*a, c);
   if (transfer) {  // wall contact state, by (id, wall, element)
     const auto width = EntryStore::widths(cs.wall_shape);
     const auto state = cs.walls.carried();
-    const Index ni = static_cast<Index>(n);
-    for (Index i = 0; i < ni; ++i) {
+    // Each row writes only its own entries, its own old row and its own dissipation.
+#pragma omp parallel for schedule(static) num_threads(c.threads) if (c.parallel)
+    for (long i = 0; i < ni; ++i) {
       const Id a = ps.id[i];
       if (a >= static_cast<Id>(old_index_of_.size())) continue;  // added since
       const Index oi = old_index_of_[a];
@@ -219,7 +283,7 @@ void NeighborList::build_walls(const Context& c, double skin_now, bool transfer,
                                             cs.stash_walls[0], q);
     }
   }
-  for (std::size_t e = 0; e < cs.walls.overlap.size(); ++e) cs.walls.touch[e] = touching(c.law, cs.walls.overlap[e]);
+  mark_touching(cs.walls, c);
 }
 
 namespace {
@@ -307,7 +371,8 @@ void NeighborList::remove(const Context& c, const Id* gone, std::size_t count) {
 }
 
 void NeighborList::refresh(const Context& c) {
-  c.contacts.stash_pair_state(near_offset, near_partner, c.particles.arrays().id, c.law);
+  c.contacts.stash_pair_state(near_offset, near_partner, c.particles.arrays().id, c.law,
+                               c.parallel ? c.threads : 1);
   refresh_near(c, true, false);
 }
 
@@ -354,7 +419,7 @@ void NeighborList::refresh_near(const Context& c, bool transfer, bool reordered)
 
   // 2. Contact state, carried over by (owner id, partner id): rows are sorted by partner id.
   cs.size(near_partner.size(), wall_index.size());
-  for (Array<double>* a : cs.pairs.carried()) std::fill(a->begin(), a->end(), 0.0);
+  for (Array<double>* a : cs.pairs.carried()) zero(*a, c);
   const std::size_t old_n = cs.stash_offset.size() == 0 ? 0 : cs.stash_offset.size() - 1;
   if (transfer && old_n > 0) {
     // Only touching entries have state (an entry's results and history are zeroed when it
@@ -398,7 +463,7 @@ void NeighborList::refresh_near(const Context& c, bool transfer, bool reordered)
         }
     }
   }
-  for (std::size_t q = 0; q < cs.pairs.overlap.size(); ++q) cs.pairs.touch[q] = touching(c.law, cs.pairs.overlap[q]);
+  mark_touching(cs.pairs, c);
 
   // 3. Reverse index: for each particle, the entries where it is the partner, by owner id.
   //    (A ghost partner's entries are its source's.)
@@ -418,16 +483,41 @@ void NeighborList::refresh_near(const Context& c, bool transfer, bool reordered)
                      [&](Index q) { return ps.id[near_owner[q]]; });
   // 4. The near-wall entries, and the particles with entries.
   const bool moving = c.walls.moving();
+  auto keeps = [&](long i, Index e) {
+    return moving || cs.walls.touch[e] || c.walls.gap(vec3(x, i), r[i], wall_index[e], wall_element[e]) < reach;
+  };
   wall_near_offset.resize(n + 1);
   wall_near_offset[0] = 0;
-  wall_near.clear();
-  wall_near.reserve(wall_index.size());
-  for (std::size_t i = 0; i < n; ++i) {
-    for (Index e = wall_offset[i]; e < wall_offset[i + 1]; ++e) {
-      if (moving || cs.walls.touch[e] || c.walls.gap(vec3(x, i), r[i], wall_index[e], wall_element[e]) < reach)
-        wall_near.push_back(e);
+  if (!c.parallel || c.threads <= 1) {  // one pass
+    wall_near.resize(wall_index.size());
+    Index p = 0;
+    for (long i = 0; i < ni; ++i) {
+      for (Index e = wall_offset[i]; e < wall_offset[i + 1]; ++e) {
+        wall_near[p] = e;
+        p += keeps(i, e) ? 1 : 0;
+      }
+      wall_near_offset[i + 1] = p;
     }
-    wall_near_offset[i + 1] = static_cast<Index>(wall_near.size());
+    wall_near.resize(static_cast<std::size_t>(p));
+  } else {  // counted, then written, the rows shared between the threads
+    wall_keep_.resize(wall_index.size());
+#pragma omp parallel for schedule(static) num_threads(c.threads)
+    for (long i = 0; i < ni; ++i) {
+      Index count = 0;
+      for (Index e = wall_offset[i]; e < wall_offset[i + 1]; ++e) {
+        wall_keep_[e] = keeps(i, e);
+        count += wall_keep_[e];
+      }
+      wall_near_offset[i + 1] = count;
+    }
+    for (std::size_t i = 0; i < n; ++i) wall_near_offset[i + 1] += wall_near_offset[i];
+    wall_near.resize(static_cast<std::size_t>(wall_near_offset[n]));
+#pragma omp parallel for schedule(static) num_threads(c.threads)
+    for (long i = 0; i < ni; ++i) {
+      Index p = wall_near_offset[i];
+      for (Index e = wall_offset[i]; e < wall_offset[i + 1]; ++e)
+        if (wall_keep_[e]) wall_near[p++] = e;
+    }
   }
   index_entries(c);
   cache_terms(c);
@@ -438,13 +528,12 @@ void NeighborList::refresh_near(const Context& c, bool transfer, bool reordered)
 void NeighborList::index_entries(const Context& c) {
   const std::size_t n = c.particles.size();
   loaded.assign(n + c.domain.ghosts(), 0);  // (a ghost's mark goes to its source: Domain::fold)
-  busy.clear();
-  for (std::size_t i = 0; i < n; ++i)
-    if (wall_near_offset[i + 1] > wall_near_offset[i] || near_offset[i + 1] > near_offset[i] ||
-        near_rev_offset[i + 1] > near_rev_offset[i])
-      busy.push_back(static_cast<Index>(i));
+  filter(static_cast<long>(n), [&](long i) {
+    return wall_near_offset[i + 1] > wall_near_offset[i] || near_offset[i + 1] > near_offset[i] ||
+           near_rev_offset[i + 1] > near_rev_offset[i];
+  }, busy, c);
   build_sum_entries(c);
-  measure();
+  measure(c);
   fit(active, wall_near.size());  // the walls in contact (engine/contact_pass.hpp)
 }
 
@@ -478,16 +567,21 @@ void NeighborList::build_sum_entries(const Context& c) {
   }
 }
 
-void NeighborList::measure() {
+void NeighborList::measure(const Context& c) {
   Index below = 0, above = 0, most = 0;
-  for (std::size_t q = 0; q < near_partner.size(); ++q) {
+  const long m = static_cast<long>(near_partner.size()), nb = static_cast<long>(busy.size());
+#pragma omp parallel for schedule(static) num_threads(c.threads) if (c.parallel) reduction(max : below, above)
+  for (long q = 0; q < m; ++q) {
     below = std::max(below, near_owner[q] - near_partner[q]);
     above = std::max(above, near_partner[q] - near_owner[q]);
   }
-  for (const Index k : busy)
+#pragma omp parallel for schedule(static) num_threads(c.threads) if (c.parallel) reduction(max : most)
+  for (long b = 0; b < nb; ++b) {
+    const Index k = busy[b];
     most = std::max(most, (wall_near_offset[k + 1] - wall_near_offset[k]) +
                               (near_offset[k + 1] - near_offset[k]) +
                               (near_rev_offset[k + 1] - near_rev_offset[k]));
+  }
   reach_below = below;
   reach_above = above;
   max_entries = most;
@@ -499,7 +593,9 @@ void NeighborList::cache_terms(const Context& c) {
   const ParticleStore& ps = c.particles.arrays();
   const double *mass = ps.mass.data(), *radius = ps.radius.data(), *inv_mass = ps.inv_mass.data();
   const int* material = ps.material.data();
-  for (std::size_t q = 0; q < near_partner.size(); ++q) {
+  const long m = static_cast<long>(near_partner.size());
+#pragma omp parallel for schedule(static) num_threads(c.threads) if (c.parallel)
+  for (long q = 0; q < m; ++q) {
     const Index i = near_owner[q], j = near_partner[q];
     // A fixed sphere (inverse mass 0, boundary.hpp) is a wall to the other: its mass.
     const double m_pair = mass[i] * mass[j] / (mass[i] + mass[j]);
@@ -548,7 +644,7 @@ std::size_t NeighborList::wall_bytes() const {
 }
 std::size_t NeighborList::scratch_bytes() const {
   return capacity_bytes(cell_start_, cell_of_, cell_key_, perm_, old_index_of_, active, scratch_,
-                        scratch_int_);
+                        scratch_int_, wall_keep_);
 }
 
 }  // namespace tsubu

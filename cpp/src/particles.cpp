@@ -69,9 +69,11 @@ void Particles::scatter(const double* in, double* dst) const {
   }
 }
 
-void Particles::permute(const Array<Index>& perm, Array<double>& scratch) {
-  s_.permute(perm, scratch);
-  for (std::size_t k = 0; k < n_; ++k) index_of_[s_.id[k]] = static_cast<Index>(k);
+void Particles::permute(const Array<Index>& perm, Array<double>& scratch, int threads) {
+  s_.permute(perm, scratch, threads);
+  const long n = static_cast<long>(n_);
+#pragma omp parallel for schedule(static) num_threads(threads) if (threads > 1)
+  for (long k = 0; k < n; ++k) index_of_[s_.id[k]] = static_cast<Index>(k);
 }
 
 void Particles::remove(const Id* ids, std::size_t count) {

@@ -29,6 +29,11 @@ const char* phase_name(Phase p) {
   return names[int(p)];
 }
 
+const char* region_name(Region r) {
+  static const char* names[] = {"contacts", "particles", "fused"};
+  return names[int(r)];
+}
+
 int Simulation::threads() const {
 #ifdef TSUBU_HAVE_OPENMP
   return opt_.threads > 0 ? opt_.threads : omp_get_max_threads();

@@ -1645,6 +1645,19 @@ class Simulation:
         ``integrate`` (summing reactions and advancing the spheres)."""
         return self._core.phase_seconds()
 
+    def region_seconds(self) -> dict:
+        """How the time loop's parallel regions used their threads so far, for thread-scaling
+        studies (``benchmarks/scaling.py``): for each kind of region, ``contacts`` (the contact
+        pass), ``particles`` (the particle pass) and ``fused`` (a particle pass fused with the
+        next contact pass), a dict with ``wall`` (seconds inside those regions, as the calling
+        thread saw them), ``slowest`` and ``mean`` (the sums over regions of the busiest
+        thread's and of the average thread's working time, in seconds, barriers left out) and
+        ``count`` (regions timed). ``wall - slowest`` is what starting, joining and
+        synchronising the threads cost; ``slowest - mean`` what the imbalance between their
+        shares cost. The loop's time outside these regions is the sum of
+        :meth:`phase_seconds` less the ``wall`` times."""
+        return self._core.region_seconds()
+
     @property
     def rebuild_count(self) -> int:
         """Verlet-list rebuilds so far."""

@@ -43,9 +43,9 @@ class ContactStore {
 
   // Moves the touching pair entries of rows `offset` (partners `partner`, internal indices)
   // into the stash; `id` maps an internal index to its id; `law` says which entries touch
-  // (touching(), registry.hpp).
+  // (touching(), registry.hpp); on `threads` threads where > 1.
   void stash_pair_state(const Array<Index>& offset, const Array<Index>& partner, const Array<Id>& id,
-                        const CompiledLaw& law);
+                        const CompiledLaw& law, int threads = 1);
 
   std::size_t bytes() const;
   std::size_t stash_bytes() const;

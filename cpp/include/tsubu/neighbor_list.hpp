@@ -171,7 +171,7 @@ class NeighborList {
   // sum_entry and sum_offset from the near list, the reverse index and the near-wall list.
   void build_sum_entries(const Context& c);
   // reach_below, reach_above and max_entries from the near lists.
-  void measure();
+  void measure(const Context& c);
   // The energy a contact loses when it opens (its tangential spring; the engine releases).
   static double spring_energy(const Context& c, int material_a, int material_b,
                               const Array<double>& xi, std::size_t e);
@@ -183,6 +183,7 @@ class NeighborList {
   Array<CellKey> cell_key_;
   Array<double> scratch_;
   Array<Index> scratch_int_;
+  Array<std::uint8_t> wall_keep_;  // which near-wall entries a refresh keeps in wall_near
 };
 
 // Calls visit(cell) for each existing cell among the 27 around `key` (itself included), in the

@@ -95,7 +95,7 @@ class Particles {
   }
 
   // Puts the spheres in the order perm (sphere perm[k] to index k) and updates the map.
-  void permute(const Array<Index>& perm, Array<double>& scratch);
+  void permute(const Array<Index>& perm, Array<double>& scratch, int threads = 1);
 
   // Per material (of `materials`): the lightest sphere's mass and the smallest radius; infinity
   // for a material no sphere has.

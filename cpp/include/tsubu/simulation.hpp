@@ -376,6 +376,8 @@ class Simulation : private detail::RunHooks {
   std::vector<std::pair<std::string, std::size_t>> memory_bytes() const;
   // Seconds spent per phase of the loop since construction (see Phase).
   const std::array<double, int(Phase::Count)>& phase_seconds() const { return run_.phase_seconds; }
+  // How the step's parallel regions used their threads since construction (see Region).
+  const std::array<RegionTimes, int(Region::Count)>& region_seconds() const { return run_.regions; }
   double skin() const;
 
   // ---- stress (stress.cpp, docs/stress.md) -------------------------------------------------

@@ -52,8 +52,11 @@ struct ParticleStore {
     });
   }
   // a[k] = a[perm[k]] for every field, one component at a time through a scratch of n values,
-  // so that no array is duplicated and every array keeps its exact capacity.
-  void permute(const Array<Index>& perm, Array<double>& scratch) {
+  // so that no array is duplicated and every array keeps its exact capacity; on `threads`
+  // threads where `threads` > 1 (the rows shared between them).
+  void permute(const Array<Index>& perm, Array<double>& scratch, int threads = 1) {
+    scratch.resize(perm.size());
+#pragma omp parallel num_threads(threads) if (threads > 1)
     for_each_field([&](auto& a, int width) { permute_one(a, perm, width, scratch); });
   }
   std::size_t bytes() const {
@@ -64,16 +67,19 @@ struct ParticleStore {
     return b;
   }
 
+  // (Inside a parallel region or not: the loops are shared with `omp for`, whose ends are
+  // the barriers between the gather into the scratch and the scatter back. `scratch` holds
+  // perm.size() values.)
   template <class A>
   static void permute_one(A& a, const Array<Index>& perm, int width, Array<double>& scratch) {
     using T = typename A::value_type;
     static_assert(sizeof(T) <= sizeof(double) && std::is_trivially_copyable_v<T>);
-    const std::size_t n = perm.size();
-    scratch.resize(n);
+    const long n = static_cast<long>(perm.size());
     for (int c = 0; c < width; ++c) {
-      for (std::size_t k = 0; k < n; ++k)
-        std::memcpy(&scratch[k], &a[width * perm[k] + c], sizeof(T));
-      for (std::size_t k = 0; k < n; ++k) std::memcpy(&a[width * k + c], &scratch[k], sizeof(T));
+#pragma omp for schedule(static)
+      for (long k = 0; k < n; ++k) std::memcpy(&scratch[k], &a[width * perm[k] + c], sizeof(T));
+#pragma omp for schedule(static)
+      for (long k = 0; k < n; ++k) std::memcpy(&a[width * k + c], &scratch[k], sizeof(T));
     }
   }
 };

@@ -114,22 +114,29 @@ struct ContactPass {
 
   // The whole pass, in one parallel region: each thread takes a contiguous part of the near
   // list, cut at owner boundaries, then its part of the near-wall entries.
-  static Found run(const ContactView& c) {
+  // `cut`: the threads' parts of the particles (balance.hpp); each evaluates the entries its
+  // particles own.
+  static Found run(const ContactView& c, const Index* cut, Balance& parts, RegionTimes& times) {
     double excess = 0, fmax = 0;
     int bad = 0;
+    RegionClock clock(times);
 #pragma omp parallel num_threads(c.threads) reduction(max : excess, fmax, bad)
     {
-      const Share me = share(0);
-      auto pair_owner = [&](Index q) { return c.own[q]; };
+      RegionClock::Stopwatch work;
+      const Share me = share(c.n, cut, c.threads);
       Scan scan{};
       Block block(c.same);
       Found f;
-      pair_range(c, part_start(pair_owner, c.pairs, me.t, me.nt),
-                 part_start(pair_owner, c.pairs, me.t + 1, me.nt), c.far, scan, block, f);
+      if (c.pairs > 0) pair_range(c, c.owned[me.lo], c.owned[me.hi], c.far, scan, block, f);
+      work.stop();
 #pragma omp barrier
+      work.start();
       wall_part(c, me.t, me.nt, scan, block, f);
       excess = f.excess, fmax = f.fmax, bad = f.bad;
+      work.stop();
+      clock.done(work, me.t, me.nt, parts);
     }
+    clock.close();
     return {excess, fmax, bad};
   }
 };

@@ -57,7 +57,8 @@ struct Stepper {
         if (s.hooks.stop_due(clock.last())) break;
         s.hooks.update_lists();
         clock.lap(Phase::Neighbors);
-        found = CP::run(ContactView(s, dt));
+        found = CP::run(ContactView(s, dt), run.balance.cuts(Index(s.particles.size()), s.threads),
+                        run.balance, run.regions[int(Region::Contacts)]);
         if (periodic) s.domain.fold(lists.loaded.data(), s.particles.size());
         clock.lap(Phase::Contacts);
       } else if (lists.needs_rebuild(s.walls, s.options.rebuild_every_step) || lists.needs_refresh()) {
@@ -76,8 +77,10 @@ struct Stepper {
       if (s.fixed) s.fixed->before(s.particles);
       const bool nonfinite =
           ready ? FusedPass<Law>::run(pv, ContactView(s, dt, 1), lists.reach_below,
-                                      lists.reach_above, vmax2, found)
-                : PP::run(pv, vmax2);
+                                      lists.reach_above, vmax2, found, run.regions[int(Region::Fused)])
+                : PP::run(pv, run.balance.cuts(pv.n, s.threads), run.balance, vmax2,
+                          run.regions[int(Region::Particles)]);
+      if (!ready) run.balance.step();
       if (s.fixed) vmax2 = std::max(vmax2, s.fixed->after(s.particles, dt));
       run.last_move = std::sqrt(vmax2) * dt;  // the distance any particle moved: dt max|v|
       // (A Lees–Edwards image also moves at the slide's speed: a pair across the sheared faces

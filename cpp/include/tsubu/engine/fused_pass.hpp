@@ -22,14 +22,16 @@ struct FusedPass {
   // owner. Returns true if a new velocity is not finite; sets vmax2 to max |v|^2 and `next` to
   // the next step's findings.
   static bool run(const ParticleView& pv, const ContactView& c, Index below, Index above,
-                  double& vmax2_out, Found& next) {
+                  double& vmax2_out, Found& next, RegionTimes& times) {
     const Index n = pv.n;
     const Index* owned = c.owned;
     double vmax2 = 0, check = 0, excess = 0, fmax = 0;
     int bad = 0;
+    RegionClock clock(times);
 #pragma omp parallel num_threads(pv.threads) reduction(max : vmax2, excess, fmax, bad) \
     reduction(+ : check)
     {
+      RegionClock::Stopwatch work;
       const auto [t, nt, lo, hi] = share(n);
       // Owners in [ilo, ihi) have all their partners in [lo, hi).
       const Index ilo = t == 0 ? lo : std::min(hi, lo + below);
@@ -48,13 +50,20 @@ struct FusedPass {
         }
       }
       CP::pair_range(c, owned[done], owned[ihi], true, scan, block, f);
+      work.stop();
 #pragma omp barrier
+      work.start();
       CP::pair_range(c, owned[lo], owned[ilo], true, scan, block, f);
       CP::pair_range(c, owned[ihi], owned[hi], true, scan, block, f);
+      work.stop();
 #pragma omp barrier
+      work.start();
       CP::wall_part(c, t, nt, scan, block, f);
       excess = f.excess, fmax = f.fmax, bad = f.bad;
+      work.stop();
+      clock.done(work, t, nt);
     }
+    clock.close();
     vmax2_out = vmax2;
     next = {excess, fmax, bad};
     return !(check == 0);

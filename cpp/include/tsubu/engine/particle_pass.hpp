@@ -158,15 +158,22 @@ struct ParticlePass {
   }
 
   // The whole pass. Returns true if a new velocity is not finite; sets vmax2 to max |v|^2.
-  static bool run(const ParticleView& pv, double& vmax2_out) {
+  // `cut`: the threads' parts of the particles (balance.hpp).
+  static bool run(const ParticleView& pv, const Index* cut, Balance& parts, double& vmax2_out,
+                  RegionTimes& times) {
     double vmax2 = 0, check = 0;
+    RegionClock clock(times);
 #pragma omp parallel num_threads(pv.threads) reduction(max : vmax2) reduction(+ : check)
     {
-      const Share me = share(pv.n);
+      RegionClock::Stopwatch work;
+      const Share me = share(pv.n, cut, pv.threads);
       Index b = pv.first_busy(me.lo);
       for (Index c0 = me.lo; c0 < me.hi; c0 += kChunk)
         chunk(pv, c0, std::min(me.hi, c0 + kChunk), b, vmax2, check);
+      work.stop();
+      clock.done(work, me.t, me.nt, parts);
     }
+    clock.close();
     vmax2_out = vmax2;
     return !(check == 0);
   }

@@ -82,6 +82,7 @@ struct ContactView {
   std::uint64_t step, seed;
   double dt;
   Index pairs, walls;  // near-pair and near-wall entries
+  Index n;             // particles (near-list owners)
   int threads;
   bool far;  // a large scene: partners' positions are prefetched
 
@@ -110,7 +111,8 @@ struct ContactView {
         tangent(s.walls.has_meshes() ? l.wall_tangent.data() : nullptr), moving(s.walls.moving()), table(&s.pairs),
         same(s.sphere_material >= 0 ? &s.pairs(s.sphere_material, s.sphere_material) : nullptr),
         step(std::uint64_t(s.run.step + ahead)), seed(s.options.seed), dt(dt_),
-        pairs(Index(l.near_partner.size())), walls(Index(l.wall_near.size())), threads(s.threads),
+        pairs(Index(l.near_partner.size())), walls(Index(l.wall_near.size())),
+        n(Index(s.particles.size())), threads(s.threads),
         far(s.particles.size() >= kFar) {}
 };
 

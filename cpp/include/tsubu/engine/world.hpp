@@ -15,6 +15,7 @@
 #include "../options.hpp"
 #include "../particles.hpp"
 #include "../walls/walls.hpp"
+#include "balance.hpp"
 
 namespace tsubu {
 
@@ -39,6 +40,17 @@ class PhaseTimer {
   std::chrono::steady_clock::time_point last_;
 };
 
+// How the step's parallel regions spent their threads, per kind of region (benchmarks/scaling.py):
+// `wall`, the regions' time as the calling thread saw it; `slowest` and `mean`, the sums over
+// regions of the busiest thread's and of the average thread's working time. wall - slowest is
+// the cost of starting, joining and synchronising the team; slowest - mean, the imbalance.
+enum class Region { Contacts = 0, Particles, Fused, Count };
+struct RegionTimes {
+  double wall = 0, slowest = 0, mean = 0;  // s
+  long count = 0;                          // regions timed
+};
+const char* region_name(Region r);
+
 // The counters of the run: where it stands, its step, and what it measured.
 struct RunCounters {
   long step = 0;
@@ -51,6 +63,8 @@ struct RunCounters {
   // World::max_move.
   double last_move = 0;
   std::array<double, int(Phase::Count)> phase_seconds{};
+  std::array<RegionTimes, int(Region::Count)> regions{};
+  detail::Balance balance;  // the threads' parts of the particles (balance.hpp)
 };
 
 namespace detail {
