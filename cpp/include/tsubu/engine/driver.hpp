@@ -43,7 +43,7 @@ struct Stepper {
     // Large scenes with fixed walls fuse a step's particle pass with the next step's contact
     // pass whenever no neighbour list can be due in between; the first and the last step of a
     // run, and those that end on an energy check, run as two passes.
-    const bool fuse = fuses(s, moving) && steps > 2;
+    const bool fuse = fuses(s) && steps > 2;
     const ParticleStore& p = s.particles.arrays();
     const double min_mass = fuse ? *std::min_element(p.mass.data(), p.mass.data() + s.particles.size())
                                  : 0.0;
@@ -70,17 +70,25 @@ struct Stepper {
       // than max_move may have passed through another, or over a contact, unseen. Checked after
       // the overlaps, which name a contact the step ran into.
       if (run.last_move > s.max_move) s.hooks.report_fast(s.max_move);
+      // The walls take their step here, after the contacts that used them and before the
+      // particle pass, which does not read them: a fused pass then evaluates the next step's
+      // wall contacts where the walls then stand.
+      if (moving) {
+        if (s.walls.servoed()) s.hooks.steer_walls();
+        s.walls.advance(dt);
+      }
       ready = fuse && k > 0 && k + 1 < steps && (run.step + 1) % kEnergyCheck != 0 &&
               fusable(s, dt, vmax2, found, min_mass) && !s.hooks.stop_due(clock.last());
       run.fused_steps += ready ? 1 : 0;
       const ParticleView pv(s, dt);
       if (s.fixed) s.fixed->before(s.particles);
       const bool nonfinite =
-          ready ? FusedPass<Law>::run(pv, ContactView(s, dt, 1), lists.reach_below,
-                                      lists.reach_above, vmax2, found, run.regions[int(Region::Fused)])
+          ready ? FusedPass<Law>::run(pv, ContactView(s, dt, 1), lists.reach_below, lists.reach_above,
+                                      run.balance.cuts(pv.n, s.threads), run.balance, vmax2, found,
+                                      run.regions[int(Region::Fused)])
                 : PP::run(pv, run.balance.cuts(pv.n, s.threads), run.balance, vmax2,
                           run.regions[int(Region::Particles)]);
-      if (!ready) run.balance.step();
+      run.balance.step();
       if (s.fixed) vmax2 = std::max(vmax2, s.fixed->after(s.particles, dt));
       run.last_move = std::sqrt(vmax2) * dt;  // the distance any particle moved: dt max|v|
       // (A Lees–Edwards image also moves at the slide's speed: a pair across the sheared faces
@@ -90,10 +98,6 @@ struct Stepper {
       else if (streaming) lists.book_moved(s.domain.sheared_move(s.particles.arrays(), s.particles.size(), dt));
       else lists.book_moved(run.last_move + 0.5 * dt * s.domain.shear_speed());
       if (nonfinite) s.hooks.report_nonfinite_velocity();
-      if (moving) {
-        if (s.walls.servoed()) s.hooks.steer_walls();
-        s.walls.advance(dt);
-      }
       if (periodic) {
         if (s.domain.servo().on) s.hooks.steer_box();
         s.domain.advance(dt);
@@ -108,11 +112,14 @@ struct Stepper {
   }
 
   // Whether runs of this scene fuse steps where they can.
-  static bool fuses(const World& s, bool moving) {
+  static bool fuses(const World& s) {
     // (A fixed sphere is put in place after the particle pass, and an outlet removes spheres
     // after it: neither can be fused with the next contact pass.)
     // (Nor can a periodic box, whose ghosts follow their sources between the two.)
-    return Features<Law>::kBlocked && !moving && !s.fixed && !s.outlets && !s.domain.periodic() &&
+    // (Walls may move, with their prescribed motion: a servo wall's speed has no bound that
+    // fusable could use, and a moving mesh's measure is left to the two passes.)
+    const bool walls = !s.walls.moving() || (!s.walls.servoed() && !s.walls.has_meshes());
+    return Features<Law>::kBlocked && walls && !s.fixed && !s.outlets && !s.domain.periodic() &&
            s.particles.size() >= ContactView::kFar;
   }
 
@@ -124,7 +131,9 @@ struct Stepper {
     const double speed = std::sqrt(vmax2) + dt * (s.options.gravity.norm() +
                                                    double(s.lists.max_entries) * now.fmax / min_mass);
     const double step = dt * speed * (1 + 1e-9);
-    return std::isfinite(step) && s.lists.can_move(step, s.options.rebuild_every_step);
+    // (The walls have already taken this step: Stepper::run.)
+    return std::isfinite(step) && s.lists.can_move(step, s.options.rebuild_every_step) &&
+           !s.walls.moved_beyond(s.lists.moved + step, s.lists.skin);
   }
 };
 

@@ -21,8 +21,9 @@ struct FusedPass {
   // `below`, `above`: how far down and up the particle array a near pair's partner lies from its
   // owner. Returns true if a new velocity is not finite; sets vmax2 to max |v|^2 and `next` to
   // the next step's findings.
+  // `cut`: the threads' parts of the particles (balance.hpp).
   static bool run(const ParticleView& pv, const ContactView& c, Index below, Index above,
-                  double& vmax2_out, Found& next, RegionTimes& times) {
+                  const Index* cut, Balance& parts, double& vmax2_out, Found& next, RegionTimes& times) {
     const Index n = pv.n;
     const Index* owned = c.owned;
     double vmax2 = 0, check = 0, excess = 0, fmax = 0;
@@ -32,7 +33,7 @@ struct FusedPass {
     reduction(+ : check)
     {
       RegionClock::Stopwatch work;
-      const auto [t, nt, lo, hi] = share(n);
+      const auto [t, nt, lo, hi] = share(n, cut, pv.threads);
       // Owners in [ilo, ihi) have all their partners in [lo, hi).
       const Index ilo = t == 0 ? lo : std::min(hi, lo + below);
       const Index ihi = t == nt - 1 ? hi : std::max(ilo, hi - above);
@@ -61,7 +62,7 @@ struct FusedPass {
       CP::wall_part(c, t, nt, scan, block, f);
       excess = f.excess, fmax = f.fmax, bad = f.bad;
       work.stop();
-      clock.done(work, t, nt);
+      clock.done(work, t, nt, parts);
     }
     clock.close();
     vmax2_out = vmax2;
