@@ -31,6 +31,16 @@ NeighborList::CellGrid NeighborList::plan_grid(const Context& c, double skin) co
   for (int d = 0; d < 3; ++d) total *= std::floor((g.hi[d] - g.lo[d]) / g.h) + 1;
   if (total <= max_cells || c.domain.periodic()) {  // (false for an extent that overflows, too)
     for (int d = 0; d < 3; ++d) g.dims[d] = static_cast<long>(std::floor((g.hi[d] - g.lo[d]) / g.h)) + 1;
+    // The axis with the most cells slowest (on a tie, the later one: z before y before x); the
+    // other two in their order, x fastest.
+    int slow = 2;
+    for (int d = 1; d >= 0; --d)
+      if (g.dims[d] > g.dims[slow]) slow = d;
+    std::array<int, 3> axis{0, 1, 2};
+    std::stable_partition(axis.begin(), axis.end(), [&](int a) { return a != slow; });
+    g.stride[axis[0]] = 1;
+    g.stride[axis[1]] = g.dims[axis[0]];
+    g.stride[axis[2]] = g.dims[axis[0]] * g.dims[axis[1]];
     return g;
   }
   // Sparse: keys are computed from halved coordinates (an extent may exceed the largest double)
@@ -65,7 +75,7 @@ void NeighborList::bin_by_cell(const Context& ctx, const CellGrid& g) {
       long c[3];
       for (int d = 0; d < 3; ++d)
         c[d] = std::clamp(static_cast<long>((x[3 * k + d] - g.lo[d]) / g.h), 0L, g.dims[d] - 1);
-      cell_of_[k] = static_cast<Index>((c[2] * g.dims[1] + c[1]) * g.dims[0] + c[0]);
+      cell_of_[k] = static_cast<Index>(g.index(c));
     }
     cell_start_.assign(ncell + 1, 0);
     for (std::size_t k = 0; k < n; ++k) ++cell_start_[cell_of_[k] + 1];
@@ -131,7 +141,7 @@ void NeighborList::check_fits(const Context& c, const CellGrid& g, double skin) 
   for (long q = 0; q < cells; ++q) {
     const double own = occupancy(q);
     if (own == 0) continue;
-    CellKey key = g.sparse ? cell_key_[q] : CellKey{q / (g.dims[0] * g.dims[1]), (q / g.dims[0]) % g.dims[1], q % g.dims[0]};
+    CellKey key = g.sparse ? cell_key_[q] : CellKey{(q / g.stride[2]) % g.dims[2], (q / g.stride[1]) % g.dims[1], (q / g.stride[0]) % g.dims[0]};
     double around = 0;
     for_each_cell_around(g, key, [&](long b) { around += occupancy(b); });
     around_sum += own * around;

@@ -147,7 +147,7 @@ void NeighborList::make_ghosts(const Context& c, const CellGrid& g) {
   auto cell = [&](const Vec3& y) {
     long k[3];
     for (int d = 0; d < 3; ++d) k[d] = std::clamp(static_cast<long>((y[d] - g.lo[d]) / g.h), 0L, g.dims[d] - 1);
-    return static_cast<std::uint64_t>((k[2] * g.dims[1] + k[1]) * g.dims[0] + k[0]);
+    return static_cast<std::uint64_t>(g.index(k));
   };
   // (Spheres left unwrapped, as a checkpoint's restore leaves them, may stand further out.)
   const double margin = ghost_margin(g.h, skin) + c.domain.excursion(c.particles.arrays().x.data(), n);
@@ -199,7 +199,7 @@ void NeighborList::build_verlet(const Context& c, const CellGrid& grid, double s
       for (long cz = std::max(cc[2] - 1, 0L); cz <= std::min(cc[2] + 1, dims[2] - 1); ++cz)
         for (long cy = std::max(cc[1] - 1, 0L); cy <= std::min(cc[1] + 1, dims[1] - 1); ++cy)
           for (long cx = std::max(cc[0] - 1, 0L); cx <= std::min(cc[0] + 1, dims[0] - 1); ++cx)
-            visit_cell((cz * dims[1] + cy) * dims[0] + cx);
+            visit_cell(cz * grid.stride[2] + cy * grid.stride[1] + cx * grid.stride[0]);
     };
     const Index ni = static_cast<Index>(n);
 #pragma omp parallel for schedule(static) num_threads(c.threads) if (c.parallel)

@@ -143,7 +143,14 @@ class NeighborList {
     Vec3 lo = Vec3::Zero(), hi = Vec3::Zero();  // the particles' bounding box
     double h = 1;                                // cell side
     std::array<long, 3> dims{1, 1, 1};
+    // A dense grid's cell c has index c . stride: the axis with the most cells varies slowest
+    // and the one with the fewest fastest, so that the cells around a particle lie within the
+    // smallest cross-section of the box in index order. The particles follow the cells, so the
+    // index reach of a pair (the fused pass's window, NeighborList::reach_below/above) and the
+    // boundaries between the threads' parts are that cross-section.
+    std::array<long, 3> stride{1, 1, 1};
     bool sparse = false;
+    long index(const long* c) const { return c[0] * stride[0] + c[1] * stride[1] + c[2] * stride[2]; }
   };
   using CellKey = std::array<std::int64_t, 3>;
 
@@ -200,7 +207,8 @@ inline void NeighborList::for_each_cell_around(const CellGrid& g, const CellKey&
     for (std::int64_t cy = lo_key[1]; cy <= hi_key[1]; ++cy)
       for (std::int64_t cx = lo_key[2]; cx <= hi_key[2]; ++cx) {
         if (!g.sparse) {
-          visit(static_cast<long>((cz * dims[1] + cy) * dims[2] + cx));
+          const long c[3] = {long(cx), long(cy), long(cz)};
+          visit(g.index(c));
           continue;
         }
         const CellKey q{cz, cy, cx};
