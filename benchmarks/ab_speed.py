@@ -9,7 +9,9 @@ import tsubu (a virtual environment's ``bin/python``), optionally with a PYTHONP
 
 Scenes (``reference_scene``): the reference drop at N = 1e5 (2,000 steps, the last 1,900 timed) and
 at N = 1e6 (200 steps, the last 150 timed), and the two dense beds (5,000 steps, the last 4,000
-timed), on one thread unless ``--threads`` says otherwise.
+timed), on one thread unless ``--threads`` says otherwise; on request (``--scenes tiled-bed``) the
+dense bed tiled 4 x 4 with its floor sliding (N = 160,000, 1,000 steps, the last 950 timed; the
+scene of ``scaling.py``).
 
 Usage (from the repository root)::
 
@@ -34,6 +36,7 @@ SCENES = {
     "drop-1e6": ("ref.build(1_000_000, threads=T)", 200, 50),
     "dense-static": ("ref.build_dense_bed(threads=T)", 5000, 1000),
     "dense-shear": ("ref.build_dense_bed(threads=T, floor_velocity=0.05)", 5000, 1000),
+    "tiled-bed": ("ref.build_tiled_bed(4, threads=T)", 1000, 50),
 }
 
 CHILD = """

@@ -1,0 +1,81 @@
+// The neighbour lists' loops over rows, shared by neighbor_list.cpp and near_list.cpp: each row
+// written by one thread, so the lists are the same for any thread count.
+#pragma once
+#include <algorithm>
+#include <vector>
+#ifdef _OPENMP
+#include <omp.h>
+#endif
+
+#include "tsubu/neighbor_list.hpp"
+
+namespace tsubu::list_loops {
+
+// The k in [0, n) that pass `keep`, in order, into `out`: counted in parts, then written.
+template <class Keep>
+inline void filter(long n, Keep&& keep, Array<Index>& out, const NeighborList::Context& c) {
+  const int most = c.parallel ? std::max(1, c.threads) : 1;
+  if (most == 1) {  // one pass
+    out.resize(static_cast<std::size_t>(n));
+    Index count = 0;
+    for (long k = 0; k < n; ++k) {
+      out[count] = static_cast<Index>(k);
+      count += keep(k) ? 1 : 0;
+    }
+    out.resize(static_cast<std::size_t>(count));
+    return;
+  }
+  std::vector<Index> start(static_cast<std::size_t>(most) + 1, 0);
+#pragma omp parallel num_threads(most) if (most > 1)
+  {
+#ifdef _OPENMP
+    const int t = omp_get_thread_num(), nt = omp_get_num_threads();
+#else
+    const int t = 0, nt = 1;
+#endif
+    const long lo = n * t / nt, hi = n * (t + 1) / nt;
+    Index count = 0;
+    for (long k = lo; k < hi; ++k) count += keep(k) ? 1 : 0;
+    start[t + 1] = count;
+#pragma omp barrier
+#pragma omp single
+    {
+      for (int u = 0; u < nt; ++u) start[u + 1] += start[u];
+      out.resize(static_cast<std::size_t>(start[nt]));
+    }
+    Index at = start[t];
+    for (long k = lo; k < hi; ++k)
+      if (keep(k)) out[at++] = static_cast<Index>(k);
+  }
+}
+
+// a[k] = 0 for every k, the rows shared between the threads.
+inline void zero(Array<double>& a, const NeighborList::Context& c) {
+  const long size = static_cast<long>(a.size());
+  double* p = a.data();
+#pragma omp parallel for schedule(static) num_threads(c.threads) if (c.parallel)
+  for (long k = 0; k < size; ++k) p[k] = 0.0;
+}
+
+// The entries' touch flags from their overlaps.
+inline void mark_touching(EntryStore& st, const NeighborList::Context& c) {
+  const long size = static_cast<long>(st.overlap.size());
+  const double* o = st.overlap.data();
+  std::uint8_t* t = st.touch.data();
+#pragma omp parallel for schedule(static) num_threads(c.threads) if (c.parallel)
+  for (long q = 0; q < size; ++q) t[q] = touching(c.law, o[q]);
+}
+
+template <class Key>
+inline void insertion_sort(Index* first, Index* last, Key key) {
+  for (Index* a = first + 1; a < last; ++a) {
+    const Index v = *a;
+    const auto kv = key(v);
+    Index* b = a;
+    for (; b > first && key(*(b - 1)) > kv; --b) *b = *(b - 1);
+    *b = v;
+  }
+}
+
+
+}  // namespace tsubu::list_loops

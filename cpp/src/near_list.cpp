@@ -1,0 +1,244 @@
+// The near list (neighbor_list.hpp): from the Verlet list, the pairs within r_i + r_j + skin/10
+// with their contact state carried over, the reverse index, the near-wall subset, the busy
+// particles, the particle pass's flat sum list, and the law's cached terms of each entry.
+#include <algorithm>
+#include <cmath>
+#include <vector>
+
+#include "list_loops.hpp"
+#include "tsubu/neighbor_list.hpp"
+
+namespace tsubu {
+
+using namespace list_loops;
+
+void NeighborList::refresh_near(const Context& c, bool transfer, bool reordered) {
+  const std::size_t n = c.particles.size();
+  ParticleStore& ps = c.particles.arrays();
+  ContactStore& cs = c.contacts;
+  const double* x = ps.x.data();
+  const double* r = ps.radius.data();
+  const double reach = near_skin();
+
+  // 1. The pairs of the Verlet list within r_i + r_j + skin/10, in the Verlet list's order:
+  //    counted, then stored.
+  auto near = [&](std::size_t i, Index j) {
+    const double cut = r[i] + r[j] + reach;
+    return c.domain.displacement(vec3(x, i), vec3(x, j)).squaredNorm() < cut * cut;
+  };
+  // Rows are independent: counted and filled in parallel (the same list for any thread count).
+  const long ni = static_cast<long>(n);
+  near_offset.resize(n + 1);
+  near_offset[0] = 0;
+#pragma omp parallel for schedule(static) num_threads(c.threads) if (c.parallel)
+  for (long i = 0; i < ni; ++i) {
+    Index count = 0;
+    for (Index e = pair_offset[i]; e < pair_offset[i + 1]; ++e) count += near(i, pair_partner[e]);
+    near_offset[i + 1] = count;
+  }
+  for (std::size_t i = 0; i < n; ++i) near_offset[i + 1] += near_offset[i];
+  const std::size_t m = static_cast<std::size_t>(near_offset[n]);
+  fit(near_owner, m);
+  fit(near_partner, m);
+  fit(near_cut2, m);
+#pragma omp parallel for schedule(static) num_threads(c.threads) if (c.parallel)
+  for (long i = 0; i < ni; ++i) {
+    Index q = near_offset[i];
+    for (Index e = pair_offset[i]; e < pair_offset[i + 1]; ++e) {
+      const Index j = pair_partner[e];
+      if (!near(i, j)) continue;
+      near_owner[q] = static_cast<Index>(i);
+      near_partner[q] = j;
+      near_cut2[q++] = (r[i] + r[j]) * (r[i] + r[j]);
+    }
+  }
+
+  // 2. Contact state, carried over by (owner id, partner id): rows are sorted by partner id.
+  cs.size(near_partner.size(), wall_index.size());
+  for (Array<double>* a : cs.pairs.carried()) zero(*a, c);
+  const std::size_t old_n = cs.stash_offset.size() == 0 ? 0 : cs.stash_offset.size() - 1;
+  if (transfer && old_n > 0) {
+    // Only touching entries have state (an entry's results and history are zeroed when it
+    // opens; a rough entry redraws its facet at first touch).
+    const auto state = cs.pairs.carried();
+    const auto width = EntryStore::widths(cs.pair_shape);
+    std::array<Array<double>*, ContactStore::kFields> now_state;
+    for (std::size_t k = 0; k < ContactStore::kFields; ++k)
+      now_state[k] = (state[k]->empty() || cs.stash_pairs[k].empty()) ? nullptr : state[k];
+    // (the stash holds touching entries only, rows sorted by partner id)
+    const Array<double>& old_overlap = cs.stash_pairs[1];
+    const Array<Index>& old_offset = cs.stash_offset;
+    const Array<Id>& old_partner = cs.stash_partner;
+    // Each row writes only its own entries, its own old row and its own dissipation.
+#pragma omp parallel for schedule(static) num_threads(c.threads) if (c.parallel)
+    for (long i = 0; i < ni; ++i) {
+      Index oi = static_cast<Index>(i);
+      if (reordered) {
+        if (ps.id[i] >= static_cast<Id>(old_index_of_.size())) continue;  // added since
+        oi = old_index_of_[ps.id[i]];
+      }
+      if (static_cast<std::size_t>(oi) >= old_n) continue;
+      Index p = old_offset[oi];
+      const Index p_end = old_offset[oi + 1];
+      for (Index q = near_offset[i]; q < near_offset[i + 1] && p < p_end; ++q) {
+        const Id b = ps.id[near_partner[q]];
+        while (p < p_end && old_partner[p] < b) ++p;
+        if (p == p_end || old_partner[p] != b || !touching(c.law, old_overlap[p])) continue;
+        for (std::size_t k = 0; k < ContactStore::kFields; ++k) {
+          if (!now_state[k]) continue;  // the old or new law has no such array
+          const std::size_t wd = width[k];
+          const double* from = cs.stash_pairs[k].data() + wd * p;
+          std::copy(from, from + wd, now_state[k]->data() + wd * q);
+        }
+        cs.stash_pairs[1][p] = 0;  // carried
+      }
+      for (p = old_offset[oi]; p < p_end; ++p)
+        if (touching(c.law, old_overlap[p])) {  // touching, and now beyond the near list: it opened
+          const Index j = c.particles.index(old_partner[p]);
+          ps.dissipated[i] += spring_energy(c, ps.material[i], ps.material[j], cs.stash_pairs[0], p);
+        }
+    }
+  }
+  mark_touching(cs.pairs, c);
+
+  // 3. Reverse index: for each particle, the entries where it is the partner, by owner id.
+  //    (A ghost partner's entries are its source's.)
+  near_rev_offset.assign(n + 1, 0);
+  for (std::size_t q = 0; q < m; ++q) ++near_rev_offset[c.domain.source(near_partner[q], n) + 1];
+  for (std::size_t i = 0; i < n; ++i) near_rev_offset[i + 1] += near_rev_offset[i];
+  fit(near_rev, m);
+  {
+    Array<Index>& fill = scratch_int_;
+    fill.assign(near_rev_offset.begin(), near_rev_offset.end() - 1);
+    for (std::size_t q = 0; q < m; ++q) near_rev[fill[c.domain.source(near_partner[q], n)]++] = static_cast<Index>(q);
+  }
+#pragma omp parallel for schedule(static) num_threads(c.threads) if (c.parallel)
+  for (long i = 0; i < ni; ++i)
+    if (near_rev_offset[i + 1] - near_rev_offset[i] > 1)
+      insertion_sort(near_rev.data() + near_rev_offset[i], near_rev.data() + near_rev_offset[i + 1],
+                     [&](Index q) { return ps.id[near_owner[q]]; });
+  // 4. The near-wall entries, and the particles with entries.
+  const bool moving = c.walls.moving();
+  auto keeps = [&](long i, Index e) {
+    return moving || cs.walls.touch[e] || c.walls.gap(vec3(x, i), r[i], wall_index[e], wall_element[e]) < reach;
+  };
+  wall_near_offset.resize(n + 1);
+  wall_near_offset[0] = 0;
+  if (!c.parallel || c.threads <= 1) {  // one pass
+    wall_near.resize(wall_index.size());
+    Index p = 0;
+    for (long i = 0; i < ni; ++i) {
+      for (Index e = wall_offset[i]; e < wall_offset[i + 1]; ++e) {
+        wall_near[p] = e;
+        p += keeps(i, e) ? 1 : 0;
+      }
+      wall_near_offset[i + 1] = p;
+    }
+    wall_near.resize(static_cast<std::size_t>(p));
+  } else {  // counted, then written, the rows shared between the threads
+    wall_keep_.resize(wall_index.size());
+#pragma omp parallel for schedule(static) num_threads(c.threads)
+    for (long i = 0; i < ni; ++i) {
+      Index count = 0;
+      for (Index e = wall_offset[i]; e < wall_offset[i + 1]; ++e) {
+        wall_keep_[e] = keeps(i, e);
+        count += wall_keep_[e];
+      }
+      wall_near_offset[i + 1] = count;
+    }
+    for (std::size_t i = 0; i < n; ++i) wall_near_offset[i + 1] += wall_near_offset[i];
+    wall_near.resize(static_cast<std::size_t>(wall_near_offset[n]));
+#pragma omp parallel for schedule(static) num_threads(c.threads)
+    for (long i = 0; i < ni; ++i) {
+      Index p = wall_near_offset[i];
+      for (Index e = wall_offset[i]; e < wall_offset[i + 1]; ++e)
+        if (wall_keep_[e]) wall_near[p++] = e;
+    }
+  }
+  index_entries(c);
+  cache_terms(c);
+  moved_near = 0;
+  ++refreshes;
+}
+
+void NeighborList::index_entries(const Context& c) {
+  const std::size_t n = c.particles.size();
+  loaded.assign(n + c.domain.ghosts(), 0);  // (a ghost's mark goes to its source: Domain::fold)
+  filter(static_cast<long>(n), [&](long i) {
+    return wall_near_offset[i + 1] > wall_near_offset[i] || near_offset[i + 1] > near_offset[i] ||
+           near_rev_offset[i + 1] > near_rev_offset[i];
+  }, busy, c);
+  build_sum_entries(c);
+  measure(c);
+  fit(active, wall_near.size());  // the walls in contact (engine/contact_pass.hpp)
+}
+
+void NeighborList::build_sum_entries(const Context& c) {
+  const std::size_t nb = busy.size();
+  const std::size_t largest = std::max(near_partner.size(), wall_index.size());
+  if (largest >= (std::size_t(1) << 29)) {  // no room for the tags: the particle pass loops
+    sum_offset.clear();
+    sum_entry.clear();
+    return;
+  }
+  fit(sum_offset, nb + 1);
+  sum_offset[0] = 0;
+  for (std::size_t b = 0; b < nb; ++b) {
+    const Index k = busy[b];
+    sum_offset[b + 1] = sum_offset[b] + (wall_near_offset[k + 1] - wall_near_offset[k]) +
+                        (near_offset[k + 1] - near_offset[k]) +
+                        (near_rev_offset[k + 1] - near_rev_offset[k]);
+  }
+  fit(sum_entry, static_cast<std::size_t>(sum_offset[nb]));
+  const long nbl = static_cast<long>(nb);
+#pragma omp parallel for schedule(static) num_threads(c.threads) if (c.parallel)
+  for (long b = 0; b < nbl; ++b) {
+    const Index k = busy[b];
+    std::uint32_t* out = sum_entry.data() + sum_offset[b];
+    auto put = [&](Index e, std::uint32_t kind) { *out++ = (std::uint32_t(e) << 3) | kind; };
+    for (Index p = wall_near_offset[k]; p < wall_near_offset[k + 1]; ++p) put(wall_near[p], 2);
+    for (Index q = near_offset[k]; q < near_offset[k + 1]; ++q) put(q, 0);
+    for (Index p = near_rev_offset[k]; p < near_rev_offset[k + 1]; ++p) put(near_rev[p], 1);
+    sum_entry[sum_offset[b]] |= 4u;  // a busy particle has at least one entry
+  }
+}
+
+void NeighborList::measure(const Context& c) {
+  Index below = 0, above = 0, most = 0;
+  const long m = static_cast<long>(near_partner.size()), nb = static_cast<long>(busy.size());
+#pragma omp parallel for schedule(static) num_threads(c.threads) if (c.parallel) reduction(max : below, above)
+  for (long q = 0; q < m; ++q) {
+    below = std::max(below, near_owner[q] - near_partner[q]);
+    above = std::max(above, near_partner[q] - near_owner[q]);
+  }
+#pragma omp parallel for schedule(static) num_threads(c.threads) if (c.parallel) reduction(max : most)
+  for (long b = 0; b < nb; ++b) {
+    const Index k = busy[b];
+    most = std::max(most, (wall_near_offset[k + 1] - wall_near_offset[k]) +
+                              (near_offset[k + 1] - near_offset[k]) +
+                              (near_rev_offset[k + 1] - near_rev_offset[k]));
+  }
+  reach_below = below;
+  reach_above = above;
+  max_entries = most;
+}
+
+void NeighborList::cache_terms(const Context& c) {
+  const std::size_t width = c.law.entry_width;
+  fit(near_entry, width * near_partner.size());
+  const ParticleStore& ps = c.particles.arrays();
+  const double *mass = ps.mass.data(), *radius = ps.radius.data(), *inv_mass = ps.inv_mass.data();
+  const int* material = ps.material.data();
+  const long m = static_cast<long>(near_partner.size());
+#pragma omp parallel for schedule(static) num_threads(c.threads) if (c.parallel)
+  for (long q = 0; q < m; ++q) {
+    const Index i = near_owner[q], j = near_partner[q];
+    // A fixed sphere (inverse mass 0, boundary.hpp) is a wall to the other: its mass.
+    const double m_pair = mass[i] * mass[j] / (mass[i] + mass[j]);
+    const double m_eff = inv_mass[j] == 0 ? mass[i] : (inv_mass[i] == 0 ? mass[j] : m_pair);
+    const double r_eff = radius[i] * radius[j] / (radius[i] + radius[j]);
+    c.law.entry_terms(c.pairs(material[i], material[j]), m_eff, r_eff, near_entry.data() + width * q);
+  }
+}
+
+}  // namespace tsubu
