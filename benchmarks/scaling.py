@@ -47,7 +47,8 @@ Usage (from the repository root)::
     PYTHONPATH=python python benchmarks/scaling.py --scenes bed --threads 1 2 4 8 16 --lammps lmp
     PYTHONPATH=python python benchmarks/scaling.py --scenes drop --drop-n 1e6 --repeats 5
     PYTHONPATH=python python benchmarks/scaling.py --quick                  # small smoke run (CI)
-    PYTHONPATH=python python benchmarks/scaling.py --json scaling.json
+    PYTHONPATH=python python benchmarks/scaling.py --json scaling.json --plot scaling.png
+    python benchmarks/scaling.py --replot scaling.json --plot scaling.png    # redraw a saved run
 """
 
 from __future__ import annotations
@@ -209,6 +210,34 @@ def report(scene: str, runs: dict, threads: list, lammps: dict | None) -> dict:
     return {"scene": scene, "n": n, "rows": summary}
 
 
+def plot(results: dict, path: str) -> None:
+    """Speed-up against threads (tsubu) and MPI ranks (LAMMPS), with linear scaling drawn in."""
+    try:
+        import matplotlib
+        matplotlib.use("Agg")
+        import matplotlib.pyplot as plt
+    except ImportError:
+        raise SystemExit('--plot needs matplotlib: pip install "tsubu[bench]"')
+    fig, ax = plt.subplots(figsize=(5.5, 4.2))
+    most = 1
+    for sc in results["scenes"]:
+        rows = sc["rows"]
+        t = [r["threads"] for r in rows]
+        most = max(most, *t)
+        ax.plot(t, [r["speedup"] * t[0] for r in rows], "o-", label=f"tsubu, {sc['scene']} (N = {sc['n']:,})")
+        if rows and "lammps_speedup" in rows[0]:
+            ax.plot(t, [r["lammps_speedup"] * t[0] for r in rows], "s--", label=f"LAMMPS, {sc['scene']} (MPI ranks)")
+    ax.plot([1, most], [1, most], ":", color="grey", label="linear")
+    ax.set_xlabel("threads (tsubu) / MPI ranks (LAMMPS)")
+    ax.set_ylabel("speed-up over one")
+    ax.set_title(f"{results['machine']['cpu']}, {results['machine']['usable_cpus']} cores", fontsize=9)
+    ax.legend(fontsize=8)
+    ax.grid(alpha=0.3)
+    fig.tight_layout()
+    fig.savefig(path, dpi=120)
+    print(f"wrote {path}")
+
+
 # ---------------------------------------------------------------- main
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0],
@@ -230,10 +259,19 @@ def main(argv=None) -> int:
     ap.add_argument("--no-bind", dest="bind", action="store_false", help="do not pin tsubu's threads")
     ap.add_argument("--quick", action="store_true", help="smoke run: bed 1 x 1 and drop 2e4, 200 steps, 1 repetition")
     ap.add_argument("--json", default=None)
+    ap.add_argument("--plot", default=None, help="draw the speed-ups into this image (needs matplotlib)")
+    ap.add_argument("--replot", default=None, metavar="JSON",
+                    help="only draw --plot from an earlier run's --json file")
     ap.add_argument("--child", nargs=2, help=argparse.SUPPRESS)
     args = ap.parse_args(argv)
     if args.child:
         child(args)
+        return 0
+    if args.replot:
+        if not args.plot:
+            ap.error("--replot needs --plot FILE")
+        with open(args.replot) as f:
+            plot(json.load(f), args.plot)
         return 0
     if args.quick:
         args.tiles, args.bed_steps, args.drop_n, args.drop_steps = 1, 200, 20000, 200
@@ -283,6 +321,8 @@ def main(argv=None) -> int:
         with open(args.json, "w") as f:
             json.dump(results, f, indent=1, default=str)
         print(f"\nwrote {args.json}")
+    if args.plot:
+        plot(results, args.plot)
     return 0
 
 
