@@ -23,29 +23,20 @@ void ContactStore::size(std::size_t pair_entries, std::size_t wall_entries) {
 
 void ContactStore::stash_pair_state(const Array<Index>& offset, const Array<Index>& partner,
                                     const Array<Id>& id, const CompiledLaw& law, int threads) {
-  // Only touching entries have state: copy theirs, compactly, with rows by owner. Rows are
-  // counted, then copied, each on its own (shared between `threads` threads where > 1).
+  // Only touching entries have state: copy theirs, compactly, with rows by owner. On one thread
+  // in one pass; on more, rows are counted, then copied, each row by one thread.
   const long rows = offset.empty() ? 0 : static_cast<long>(offset.size()) - 1;
   const double* overlap = pairs.overlap.data();
-  stash_offset.resize(rows + 1);
-  stash_offset[0] = 0;
-#pragma omp parallel for schedule(static) num_threads(threads) if (threads > 1)
-  for (long i = 0; i < rows; ++i) {
-    Index count = 0;
-    for (Index q = offset[i]; q < offset[i + 1]; ++q) count += touching(law, overlap[q]) ? 1 : 0;
-    stash_offset[i + 1] = count;
-  }
-  for (long i = 0; i < rows; ++i) stash_offset[i + 1] += stash_offset[i];
-  const std::size_t count = static_cast<std::size_t>(stash_offset[rows]);
-  stash_partner.resize(count);
   const auto state = pairs.carried();
   const auto width = EntryStore::widths(pair_shape);
-  for (std::size_t k = 0; k < kFields; ++k) stash_pairs[k].resize(state[k]->empty() ? 0 : count * width[k]);
   std::array<const double*, kFields> now;
   for (std::size_t k = 0; k < kFields; ++k) now[k] = state[k]->data();
-#pragma omp parallel for schedule(static) num_threads(threads) if (threads > 1)
-  for (long i = 0; i < rows; ++i) {
-    std::size_t c = static_cast<std::size_t>(stash_offset[i]);
+  auto size_for = [&](std::size_t count) {
+    stash_partner.resize(count);
+    for (std::size_t k = 0; k < kFields; ++k) stash_pairs[k].resize(state[k]->empty() ? 0 : count * width[k]);
+  };
+  // Row i's touching entries into the stash from entry c on; returns the entry after them.
+  auto copy_row = [&](long i, std::size_t c) {
     for (Index q = offset[i]; q < offset[i + 1]; ++q) {
       if (!touching(law, overlap[q])) continue;
       stash_partner[c] = id[partner[q]];
@@ -57,7 +48,28 @@ void ContactStore::stash_pair_state(const Array<Index>& offset, const Array<Inde
       }
       ++c;
     }
+    return c;
+  };
+  stash_offset.resize(rows + 1);
+  stash_offset[0] = 0;
+  if (threads <= 1) {
+    std::size_t count = 0;
+    for (const double o : pairs.overlap) count += touching(law, o);
+    size_for(count);
+    std::size_t c = 0;
+    for (long i = 0; i < rows; ++i) stash_offset[i + 1] = static_cast<Index>(c = copy_row(i, c));
+    return;
   }
+#pragma omp parallel for schedule(static) num_threads(threads)
+  for (long i = 0; i < rows; ++i) {
+    Index count = 0;
+    for (Index q = offset[i]; q < offset[i + 1]; ++q) count += touching(law, overlap[q]) ? 1 : 0;
+    stash_offset[i + 1] = count;
+  }
+  for (long i = 0; i < rows; ++i) stash_offset[i + 1] += stash_offset[i];
+  size_for(static_cast<std::size_t>(stash_offset[rows]));
+#pragma omp parallel for schedule(static) num_threads(threads)
+  for (long i = 0; i < rows; ++i) copy_row(i, static_cast<std::size_t>(stash_offset[i]));
 }
 
 namespace {

@@ -102,6 +102,10 @@ void NeighborList::build_verlet(const Context& c, const CellGrid& grid, double s
   const Vec3& lo_cell = grid.lo;
   const double h = grid.h;
   const std::array<long, 3>& dims = grid.dims;
+  // The dense grid's axes from slowest to fastest, and their strides in that order.
+  std::array<int, 3> axis{2, 1, 0};
+  std::stable_sort(axis.begin(), axis.end(), [&](int a, int b) { return grid.stride[a] > grid.stride[b]; });
+  const long stride[2] = {grid.stride[axis[0]], grid.stride[axis[1]]};  // (the fastest: 1)
   const Index halo = static_cast<Index>(n);  // the first ghost row
   const Index* ghost_start = ghost_cell_start_.empty() ? nullptr : ghost_cell_start_.data();
   // (The ghosts' loop is compiled in only where there are ghosts: an open scene's rebuild
@@ -117,21 +121,30 @@ void NeighborList::build_verlet(const Context& c, const CellGrid& grid, double s
           if (c.domain.displacement(xi, vec3(x, j)).squaredNorm() < cut * cut) visit(j);
         }
       };
-      auto visit_cell = [&](long cell) {
-        visit_range(cell_start_[cell], cell_start_[cell + 1]);
-        if constexpr (kGhosts) visit_range(halo + ghost_start[cell], halo + ghost_start[cell + 1]);
+      // Cells [first, last], consecutive: their particles (and ghosts) are one range each.
+      auto visit_cells = [&](long first, long last) {
+        visit_range(cell_start_[first], cell_start_[last + 1]);
+        if constexpr (kGhosts) visit_range(halo + ghost_start[first], halo + ghost_start[last + 1]);
       };
+      auto visit_cell = [&](long cell) { visit_cells(cell, cell); };
       if (grid.sparse) {
         for_each_cell_around(grid, cell_of(grid, &x[3 * i]), visit_cell);
         return;
       }
-      long cc[3];  // the dense grid, indexed directly (the common case: kept tight)
-      for (int d = 0; d < 3; ++d)
-        cc[d] = std::clamp(static_cast<long>((xi[d] - lo_cell[d]) / h), 0L, dims[d] - 1);
-      for (long cz = std::max(cc[2] - 1, 0L); cz <= std::min(cc[2] + 1, dims[2] - 1); ++cz)
-        for (long cy = std::max(cc[1] - 1, 0L); cy <= std::min(cc[1] + 1, dims[1] - 1); ++cy)
-          for (long cx = std::max(cc[0] - 1, 0L); cx <= std::min(cc[0] + 1, dims[0] - 1); ++cx)
-            visit_cell(cz * grid.stride[2] + cy * grid.stride[1] + cx * grid.stride[0]);
+      // The dense grid, indexed directly (the common case: kept tight); the cells around in
+      // increasing index order, the slowest axis outermost. The fastest axis has stride 1
+      // (CellGrid::stride): its up to three cells are one run.
+      long lo[3], hi[3];
+      for (int a = 0; a < 3; ++a) {
+        const int d = axis[a];
+        const long c = std::clamp(static_cast<long>((xi[d] - lo_cell[d]) / h), 0L, dims[d] - 1);
+        lo[a] = std::max(c - 1, 0L), hi[a] = std::min(c + 1, dims[d] - 1);
+      }
+      for (long s = lo[0]; s <= hi[0]; ++s)
+        for (long m = lo[1]; m <= hi[1]; ++m) {
+          const long run = s * stride[0] + m * stride[1];
+          visit_cells(run + lo[2], run + hi[2]);
+        }
     };
     const Index ni = static_cast<Index>(n);
 #pragma omp parallel for schedule(static) num_threads(c.threads) if (c.parallel)
