@@ -56,6 +56,7 @@ from __future__ import annotations
 import argparse
 import json
 import os
+import resource
 import shutil
 import statistics
 import subprocess
@@ -147,10 +148,10 @@ def run_lammps(args, data: str, n: int, ranks: int, walls: str, workdir: str) ->
     env = dict(os.environ, OMP_NUM_THREADS="1")
     if hasattr(os, "geteuid") and os.geteuid() == 0:  # (Open MPI refuses root without these; MPICH ignores them)
         env.update(OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1")
-    busy0, child0, t0 = system_busy_s(), cpu_seconds(__import__("resource").RUSAGE_CHILDREN), time.perf_counter()
+    busy0, child0, t0 = system_busy_s(), cpu_seconds(resource.RUSAGE_CHILDREN), time.perf_counter()
     p = subprocess.run(cmd, capture_output=True, text=True, env=env, cwd=workdir)
     t1, busy1 = time.perf_counter(), system_busy_s()
-    child1 = cpu_seconds(__import__("resource").RUSAGE_CHILDREN)
+    child1 = cpu_seconds(resource.RUSAGE_CHILDREN)
     if p.returncode != 0 or not os.path.exists(log):
         raise RuntimeError(f"LAMMPS failed (exit {p.returncode}): {' '.join(cmd)}\n{p.stdout[-2000:]}{p.stderr[-2000:]}")
     r = parse_lammps_log(log)

@@ -68,13 +68,17 @@ def one_call(threads: int) -> tsubu.Simulation:
     return _RUNS[threads]
 
 
-@pytest.fixture(scope="module")
-def two_pass() -> tsubu.Simulation:
-    sim = lattice_scene(1)
+def one_step_per_call(sim: tsubu.Simulation) -> tsubu.Simulation:
+    """STEPS calls of one step each: never fused, the two-pass loop."""
     for _ in range(STEPS):
         sim.run(steps=1)
     assert sim.fused_step_count == 0
     return sim
+
+
+@pytest.fixture(scope="module")
+def two_pass() -> tsubu.Simulation:
+    return one_step_per_call(lattice_scene(1))
 
 
 def test_scene_takes_the_fused_pass_through_refreshes_and_contacts(two_pass):
@@ -140,11 +144,7 @@ def moving_walls_scene(threads: int) -> tsubu.Simulation:
 
 @pytest.fixture(scope="module")
 def two_pass_moving() -> tsubu.Simulation:
-    sim = moving_walls_scene(1)
-    for _ in range(STEPS):
-        sim.run(steps=1)
-    assert sim.fused_step_count == 0
-    return sim
+    return one_step_per_call(moving_walls_scene(1))
 
 
 @pytest.mark.parametrize("threads", [1, 2])
