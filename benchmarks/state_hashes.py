@@ -8,7 +8,8 @@ every current contact's ids, overlap, force, torque and tangential displacement,
 terms and the step count). The scenes cover every compiled feature: the reference drop at
 N = 1e5 (blocked law, fused pass), the two dense beds (fixed and sliding floor), a rough scene
 with rolling friction, a frictionless drop, a scene of two materials (per-pair parameter lanes),
-the notes' literal history rule and a scene with a tilting, rising wall.
+the notes' literal history rule, a scene with a tilting, rising wall, a Lees–Edwards box and a
+periodic chute on fixed grains.
 
 Run it on the code before and after a change and compare the printed hashes (or the --json
 files): equal hashes mean equal bits. The two thread counts must also agree with each other.
@@ -83,6 +84,49 @@ def _tilting_wall(threads):
     return sim
 
 
+def _lattice(nx, ny, nz, spacing, seed):
+    """A simple cubic lattice of nx x ny x nz sites `spacing` apart from the origin plus half a
+    spacing, jittered by up to 1 % of a spacing (seeded)."""
+    rng = np.random.default_rng(seed)
+    g = np.stack(np.meshgrid(np.arange(nx), np.arange(ny), np.arange(nz), indexing="ij"), -1)
+    x = (g.reshape(-1, 3) + 0.5) * spacing
+    return x + rng.uniform(-0.01, 0.01, x.shape) * spacing
+
+
+def _lees_edwards(threads):
+    """2,000 spheres in a periodic cube, sheared at 200 /s by Lees–Edwards images (ghosts across
+    every face, the lists' bound relative to the mean flow), from a jittered lattice at solid
+    fraction ~0.45 with random velocities."""
+    import tsubu
+    n_side, spacing = (10, 10, 20), 2.1 * ref.R
+    sim = ref.new_simulation(threads)
+    sim.gravity = (0.0, 0.0, 0.0)
+    x = _lattice(*n_side, spacing, seed=5)
+    v = np.random.default_rng(6).normal(0.0, 0.05, x.shape)
+    upper = np.array(n_side) * spacing
+    v[:, 0] += 200.0 * (x[:, 2] - 0.5 * upper[2])
+    sim.add_spheres(x, ref.R, ref.material(), velocities=v)
+    sim.set_box((0.0, 0.0, 0.0), tuple(upper), periodic="xyz")
+    sim.set_shear(200.0, flow="x", gradient="z")
+    return sim
+
+
+def _periodic_chute(threads):
+    """A chute periodic along x and y, gravity tilted 25 degrees, on a layer of fixed grains:
+    periodic ghosts with fixed spheres and gravity along a periodic axis."""
+    import math
+    n_side, spacing = (12, 8, 12), 2.05 * ref.R
+    g = ref.G
+    sim = ref.new_simulation(threads)
+    sim.gravity = (g * math.sin(math.radians(25)), 0.0, -g * math.cos(math.radians(25)))
+    x = _lattice(*n_side, spacing, seed=7)
+    ids = sim.add_spheres(x, ref.R, ref.material())
+    upper = np.array(n_side) * spacing
+    sim.set_box((0.0, 0.0, 0.0), (upper[0], upper[1], 4.0 * upper[2]), periodic="xy")
+    sim.fix_spheres(ids[x[:, 2] < spacing])
+    return sim
+
+
 # name: (builder(threads) -> Simulation, steps)
 SCENES = {
     "drop-1e5": (_drop(100_000), 2000),
@@ -93,6 +137,8 @@ SCENES = {
     "two-materials": (_two_materials, 6000),
     "literal-history": (_literal, 6000),
     "tilting-wall": (_tilting_wall, 6000),
+    "lees-edwards": (_lees_edwards, 20_000),
+    "periodic-chute": (_periodic_chute, 20_000),
 }
 
 

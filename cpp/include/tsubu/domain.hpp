@@ -69,14 +69,29 @@ class Domain {
   // its source's fluctuation), plus the mean flow's own shear across a listed pair, rate x its
   // separation (at most the ghosts' reach): dt (max |v - u| + |rate| reach / 2) per sphere.
   double sheared_move(const ParticleStore& p, std::size_t n, double dt) const {
-    const double centre = 0.5 * (lo_[gradient_] + hi_[gradient_]);
+    const MeanFlow u = mean_flow();
     double most = 0;
-    for (std::size_t k = 0; k < n; ++k) {
-      Vec3 v = vec3(p.v.data(), k);
-      v[flow_] -= rate_ * (p.x[3 * k + gradient_] - centre);
-      most = std::max(most, v.squaredNorm());
-    }
+    for (std::size_t k = 0; k < n; ++k) most = std::max(most, u.relative2(p.x.data(), p.v.data(), k));
+    return sheared_bound(most, dt);
+  }
+  // The bound above from max |v - u|^2, found by the particle pass where no fixed sphere moves
+  // after it (ParticlePass::drift): no sweep of its own over the spheres.
+  double sheared_bound(double most, double dt) const {
     return dt * (std::sqrt(most) + 0.5 * std::abs(rate_) * reach_);
+  }
+  // The mean flow of a Lees–Edwards box, u = rate (x_g - centre) along the flow.
+  struct MeanFlow {
+    double rate = 0, centre = 0;
+    int flow = 0, gradient = 2;
+    // |v_k - u(x_k)|^2
+    double relative2(const double* x, const double* v, std::size_t k) const {
+      Vec3 r = vec3(v, k);
+      r[flow] -= rate * (x[3 * k + gradient] - centre);
+      return r.squaredNorm();
+    }
+  };
+  MeanFlow mean_flow() const {
+    return {rate_, 0.5 * (lo_[gradient_] + hi_[gradient_]), flow_, gradient_};
   }
 
   // ---- per run ---------------------------------------------------------------------------
@@ -193,11 +208,26 @@ void Domain::make_ghosts(ParticleStore& p, std::size_t n, double margin, double 
   };
   for (std::size_t k = 0; k < n; ++k) {
     const Vec3 x = vec3(p.x.data(), k);
+    // Which image of each axis lands within the margin, by `inside`'s own test (the flow axis
+    // of a sheared image is tested after its slide): most spheres lie further from every face
+    // and have no image at all.
+    bool fits[3][3];
+    bool any = false;
+    for (int d = 0; d < 3; ++d)
+      for (int cd = -1; cd <= 1; ++cd) {
+        const double y = x[d] + cd * L[d];
+        fits[d][cd + 1] = !periodic_[d] || cd == 0 || !(y < lo_[d] - margin || y >= hi_[d] + margin);
+        any |= periodic_[d] && cd != 0 && fits[d][cd + 1];
+      }
+    if (!any) continue;
     for (int c2 = -span[2]; c2 <= span[2]; ++c2)
       for (int c1 = -span[1]; c1 <= span[1]; ++c1)
         for (int c0 = -span[0]; c0 <= span[0]; ++c0) {
           int c[3] = {c0, c1, c2};
           const int s = sheared_ ? c[gradient_] : 0;
+          bool fit = true;
+          for (int d = 0; d < 3; ++d) fit &= (s != 0 && d == flow_) || fits[d][c[d] + 1];
+          if (!fit) continue;
           Vec3 shift(c[0] * L[0], c[1] * L[1], c[2] * L[2]);
           if (s != 0) {  // a sheared image: its flow image is chosen after the slide
             if (c[flow_] != 0) continue;

@@ -82,11 +82,12 @@ struct Stepper {
       run.fused_steps += ready ? 1 : 0;
       const ParticleView pv(s, dt);
       if (s.fixed) s.fixed->before(s.particles);
+      double rel2 = 0;  // max |v - u|^2, where pv.relative
       const bool nonfinite =
           ready ? FusedPass<Law>::run(pv, ContactView(s, dt, 1), lists.reach_below, lists.reach_above,
                                       run.balance.cuts(pv.n, s.threads), run.balance, vmax2, found,
                                       run.regions[int(Region::Fused)])
-                : PP::run(pv, run.balance.cuts(pv.n, s.threads), run.balance, vmax2,
+                : PP::run(pv, run.balance.cuts(pv.n, s.threads), run.balance, vmax2, rel2,
                           run.regions[int(Region::Particles)]);
       run.balance.step();
       if (s.fixed) vmax2 = std::max(vmax2, s.fixed->after(s.particles, dt));
@@ -95,6 +96,7 @@ struct Stepper {
       // closes by at most 2 moved + slide, so each sphere books half the slide; without walls,
       // the spheres' motion relative to the mean flow bounds it closer: Domain::sheared_move.)
       if (!periodic) lists.book_moved(run.last_move);
+      else if (pv.relative) lists.book_moved(s.domain.sheared_bound(rel2, dt));
       else if (streaming) lists.book_moved(s.domain.sheared_move(s.particles.arrays(), s.particles.size(), dt));
       else lists.book_moved(run.last_move + 0.5 * dt * s.domain.shear_speed());
       if (nonfinite) s.hooks.report_nonfinite_velocity();

@@ -26,7 +26,7 @@ struct FusedPass {
                   const Index* cut, Balance& parts, double& vmax2_out, Found& next, RegionTimes& times) {
     const Index n = pv.n;
     const Index* owned = c.owned;
-    double vmax2 = 0, check = 0, excess = 0, fmax = 0;
+    double vmax2 = 0, check = 0, excess = 0, fmax = 0, rel2 = 0;  // (rel2: never periodic)
     int bad = 0;
     RegionClock clock(times);
 #pragma omp parallel num_threads(pv.threads) reduction(max : vmax2, excess, fmax, bad) \
@@ -43,7 +43,7 @@ struct FusedPass {
       Index b = pv.first_busy(lo), done = ilo;  // owners [ilo, done) evaluated
       for (Index c0 = lo; c0 < hi; c0 += PP::kChunk) {
         const Index c1 = std::min(hi, c0 + PP::kChunk);
-        PP::chunk(pv, c0, c1, b, vmax2, check);
+        PP::chunk(pv, c0, c1, b, vmax2, rel2, check);
         const Index ready = std::min(ihi, c1 - above);  // every partner of an owner below has moved
         if (ready > done) {
           CP::pair_range(c, owned[done], owned[ready], true, scan, block, f);

@@ -18,27 +18,43 @@ struct ParticlePass {
   static constexpr Index kChunk = 2048, kAhead = 8;
 
   // v += dt g, x += dt v over particles [lo, hi); returns max |v|^2 and a sum that is not
-  // finite if a velocity is not. Outside any OpenMP region, with local accumulators and the
-  // maximum on the bits, so that gcc vectorises it.
+  // finite if a velocity is not; kRelative: also max |v - u|^2, u the Lees–Edwards mean flow at
+  // the new position (the lists' bound, Domain::sheared_bound). Outside any OpenMP region, with
+  // local accumulators and the maximum on the bits, so that gcc vectorises it.
+  template <bool kRelative>
   [[gnu::noinline]] static void drift(double* x, double* v, Index lo, Index hi, double dt,
-                                     const double gx, const double gy, const double gz,
-                                     double& vmax2, double& check) {
-    std::uint64_t top = 0;
+                                      const double gx, const double gy, const double gz,
+                                      const Domain::MeanFlow& u, double& vmax2, double& rel2,
+                                      double& check) {
+    std::uint64_t top = 0, rtop = 0;
     double sum = 0;
+    // (The flow's axis as a mask: no index into the velocity, which would stop the vectoriser.)
+    const double ex = u.flow == 0 ? u.rate : 0.0, ey = u.flow == 1 ? u.rate : 0.0,
+                 ez = u.flow == 2 ? u.rate : 0.0, centre = u.centre;
+    const double on_x = u.gradient == 0 ? 1.0 : 0.0, on_y = u.gradient == 1 ? 1.0 : 0.0,
+                 on_z = u.gradient == 2 ? 1.0 : 0.0;
     for (Index k = lo; k < hi; ++k) {
       const double vx = v[3 * k] + gx, vy = v[3 * k + 1] + gy, vz = v[3 * k + 2] + gz;
       v[3 * k] = vx;
       v[3 * k + 1] = vy;
       v[3 * k + 2] = vz;
-      x[3 * k] += dt * vx;
-      x[3 * k + 1] += dt * vy;
-      x[3 * k + 2] += dt * vz;
+      const double xx = x[3 * k] + dt * vx, xy = x[3 * k + 1] + dt * vy, xz = x[3 * k + 2] + dt * vz;
+      x[3 * k] = xx;
+      x[3 * k + 1] = xy;
+      x[3 * k + 2] = xz;
       const double v2 = vx * vx + vy * vy + vz * vz;
       const std::uint64_t bits = order_bits(v2);
       top = top > bits ? top : bits;
       sum += nonfinite_flag(v2);
+      if constexpr (kRelative) {  // (the gradient's coordinate picked by a mask, as the flow's)
+        const double h = (on_x * xx + on_y * xy + on_z * xz) - centre;
+        const double rx = vx - ex * h, ry = vy - ey * h, rz = vz - ez * h;
+        const std::uint64_t r = order_bits(rx * rx + ry * ry + rz * rz);
+        rtop = rtop > r ? rtop : r;
+      }
     }
     vmax2 = from_order_bits(top);
+    rel2 = from_order_bits(rtop);
     check = sum;
   }
 
@@ -89,10 +105,10 @@ struct ParticlePass {
   }
 
   // Particles [c0, c1) (at most kChunk), whose busy ones start at busy[b] (b is moved past
-  // them): kicks and drift. Raises vmax2 to max |v|^2; adds to `check` 0, or NaN if a new
-  // velocity is not finite.
+  // them): kicks and drift. Raises vmax2 to max |v|^2 (and rel2 to max |v - u|^2 where
+  // pv.relative); adds to `check` 0, or NaN if a new velocity is not finite.
   static void chunk(const ParticleView& pv, Index c0, Index c1, Index& b, double& vmax2,
-                    double& check) {
+                    double& rel2, double& check) {
     // Locals, and a lambda that captures them by value: the byte store to `loaded` may alias
     // anything in memory, and gcc would reload every member or captured reference after it.
     double *const v = pv.v, *const w = pv.w;
@@ -151,30 +167,36 @@ struct ParticlePass {
                           Features<Law>::kRolling>(k, F, T);
       kicked += kick(k, F, T);
     }
-    double part_vmax2 = 0, part_check = 0;
-    drift(pv.x, v, c0, c1, dt, pv.gx, pv.gy, pv.gz, part_vmax2, part_check);
+    double part_vmax2 = 0, part_rel2 = 0, part_check = 0;
+    if (pv.relative)
+      drift<true>(pv.x, v, c0, c1, dt, pv.gx, pv.gy, pv.gz, pv.flow, part_vmax2, part_rel2, part_check);
+    else
+      drift<false>(pv.x, v, c0, c1, dt, pv.gx, pv.gy, pv.gz, pv.flow, part_vmax2, part_rel2, part_check);
     vmax2 = std::max(vmax2, part_vmax2);
+    rel2 = std::max(rel2, part_rel2);
     check += part_check + kicked;
   }
 
-  // The whole pass. Returns true if a new velocity is not finite; sets vmax2 to max |v|^2.
+  // The whole pass. Returns true if a new velocity is not finite; sets vmax2 to max |v|^2 and,
+  // where pv.relative, rel2 to max |v - u|^2.
   // `cut`: the threads' parts of the particles (balance.hpp).
   static bool run(const ParticleView& pv, const Index* cut, Balance& parts, double& vmax2_out,
-                  RegionTimes& times) {
-    double vmax2 = 0, check = 0;
+                  double& rel2_out, RegionTimes& times) {
+    double vmax2 = 0, rel2 = 0, check = 0;
     RegionClock clock(times);
-#pragma omp parallel num_threads(pv.threads) reduction(max : vmax2) reduction(+ : check)
+#pragma omp parallel num_threads(pv.threads) reduction(max : vmax2, rel2) reduction(+ : check)
     {
       RegionClock::Stopwatch work;
       const Share me = share(pv.n, cut, pv.threads);
       Index b = pv.first_busy(me.lo);
       for (Index c0 = me.lo; c0 < me.hi; c0 += kChunk)
-        chunk(pv, c0, std::min(me.hi, c0 + kChunk), b, vmax2, check);
+        chunk(pv, c0, std::min(me.hi, c0 + kChunk), b, vmax2, rel2, check);
       work.stop();
       clock.done(work, me.t, me.nt, parts);
     }
     clock.close();
     vmax2_out = vmax2;
+    rel2_out = rel2;
     return !(check == 0);
   }
 };

@@ -133,6 +133,10 @@ struct ParticleView {
   const std::uint32_t* sum_entry;
   const Index* sum_offset;
   bool flat;
+  // The pass also finds max |v - u|^2 (Stepper::run's lists bound in a Lees–Edwards box with
+  // no walls; not where fixed spheres are placed after the pass).
+  bool relative;
+  Domain::MeanFlow flow;
   int threads;
   double dt, gx, gy, gz;
 
@@ -148,7 +152,8 @@ struct ParticleView {
         n(Index(s.particles.size())), nb(Index(l.busy.size())), loaded(l.loaded.data()),
         sums(l, s.contacts, s.particles), sum_entry(l.sum_entry.data()),
         sum_offset(l.sum_offset.data()), flat(l.sum_offset.size() == std::size_t(nb) + 1),
-        threads(s.threads), dt(dt_), gx(dt_ * s.options.gravity.x()),
+        relative(s.domain.sheared() && s.walls.count() == 0 && !s.fixed),
+        flow(s.domain.mean_flow()), threads(s.threads), dt(dt_), gx(dt_ * s.options.gravity.x()),
         gy(dt_ * s.options.gravity.y()), gz(dt_ * s.options.gravity.z()) {}
 };
 
