@@ -11,7 +11,10 @@ Scenes (``reference_scene``): the reference drop at N = 1e5 (2,000 steps, the la
 at N = 1e6 (200 steps, the last 150 timed), and the two dense beds (5,000 steps, the last 4,000
 timed), on one thread unless ``--threads`` says otherwise; on request (``--scenes tiled-bed``) the
 dense bed tiled 4 x 4 with its floor sliding (N = 160,000, 1,000 steps, the last 950 timed; the
-scene of ``scaling.py``).
+scene of ``scaling.py``), the Lees–Edwards cell of ``shear_lammps.py`` (``shear-cell``, N = 10,000,
+3,000 steps from its packing, the last 2,500 timed) and the hopper of ``hopper_liggghts.py``
+(``hopper``, N = 20,000, 3,000 steps from its packing, the last 2,900 timed, before any grain
+leaves); those two take their packings from the scripts' caches, or make them (minutes).
 
 Usage (from the repository root)::
 
@@ -37,12 +40,19 @@ SCENES = {
     "dense-static": ("ref.build_dense_bed(threads=T)", 5000, 1000),
     "dense-shear": ("ref.build_dense_bed(threads=T, floor_velocity=0.05)", 5000, 1000),
     "tiled-bed": ("ref.build_tiled_bed(4, threads=T)", 1000, 50),
+    # (the packings of shear_lammps.py and hopper_liggghts.py, made and cached by those scripts)
+    "shear-cell": ("(lambda m: m.build_tsubu(m.packing(10000, _tmp('tsubu-shear-lammps'), log=_quiet), 15.0, T))"
+                   "(__import__('shear_lammps'))", 3000, 500),
+    "hopper": ("(lambda m: m.build_tsubu(m.packing(20000, _tmp('tsubu-hopper-liggghts'), log=_quiet), T))"
+               "(__import__('hopper_liggghts'))", 3000, 100),
 }
 
 CHILD = """
 import sys, time, json
 sys.path.insert(0, {here!r})
 import reference_scene as ref
+_tmp = lambda name: __import__('os').path.join(__import__('tempfile').gettempdir(), name)
+_quiet = lambda *args: None
 T = {threads}
 sim = {build}
 sim.run(steps={warmup})

@@ -56,15 +56,16 @@ void Domain::wrap_one(double* x, double* v, int* image, double* slid) const {
     if (periodic_[d] && x[d] >= hi_[d]) x[d] = lo_[d];
 }
 
-void Domain::update_ghosts(ParticleStore& p, std::size_t n) const {
-  const std::size_t g = source_.size();
+void Domain::update_ghosts(ParticleStore& p, std::size_t n, int threads) const {
+  const long g = static_cast<long>(source_.size());
   if (g == 0) return;
   double* x = p.x.data();
   double* v = p.v.data();
   double* w = p.w.data();
   const Vec3 L = length();
   const double slide = offset_, speed = rate_ * L[gradient_];
-  for (std::size_t q = 0; q < g; ++q) {
+#pragma omp parallel for schedule(static) num_threads(threads) if (threads > 1 && g >= 2048)
+  for (long q = 0; q < g; ++q) {
     const std::size_t s = static_cast<std::size_t>(source_[q]), j = n + q;
     for (int d = 0; d < 3; ++d) {
       x[3 * j + d] = x[3 * s + d] + image_[3 * q + d] * L[d];

@@ -114,11 +114,15 @@ void NeighborList::build_verlet(const Context& c, const CellGrid& grid, double s
     constexpr bool kGhosts = decltype(ghosts)::value;
     auto for_each_neighbor = [&](Index i, auto&& visit) {
       const Vec3 xi = vec3(x, i);
+      // (Both tests on every candidate, then one branch: the id test alone is a coin toss for
+      // the branch predictor, the pair's being listed rarely true.)
+      const Id idi = id[i];
+      const double ri = r[i];
       auto visit_range = [&](Index j0, Index j1) {
         for (Index j = j0; j < j1; ++j) {
-          if (id[j] <= id[i]) continue;  // (a ghost has its source's id: each pair once)
-          const double cut = r[i] + r[j] + skin_now;
-          if (c.domain.displacement(xi, vec3(x, j)).squaredNorm() < cut * cut) visit(j);
+          const double cut = ri + r[j] + skin_now;
+          const bool near = c.domain.displacement(xi, vec3(x, j)).squaredNorm() < cut * cut;
+          if (near & (id[j] > idi)) visit(j);  // (a ghost has its source's id: each pair once)
         }
       };
       // Cells [first, last], consecutive: their particles (and ghosts) are one range each.

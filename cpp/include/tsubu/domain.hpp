@@ -110,7 +110,9 @@ class Domain {
   template <class Key>
   void make_ghosts(ParticleStore& p, std::size_t n, double margin, double reach, Key&& key);
   // Moves the ghosts with their sources: x = x_src + shift, v = v_src (+ the slide's speed), w.
-  void update_ghosts(ParticleStore& p, std::size_t n) const;
+  // `threads`: the ghosts are shared among that many OpenMP threads (each writes only its own
+  // rows).
+  void update_ghosts(ParticleStore& p, std::size_t n, int threads = 1) const;
   std::size_t ghosts() const { return source_.size(); }
   const Array<Index>& ghost_sources() const { return source_; }
   // The owned row of row j (itself for an owned sphere).

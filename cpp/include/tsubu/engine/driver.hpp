@@ -94,7 +94,9 @@ struct Stepper {
       run.last_move = std::sqrt(vmax2) * dt;  // the distance any particle moved: dt max|v|
       // (A Lees–Edwards image also moves at the slide's speed: a pair across the sheared faces
       // closes by at most 2 moved + slide, so each sphere books half the slide; without walls,
-      // the spheres' motion relative to the mean flow bounds it closer: Domain::sheared_move.)
+      // the spheres' motion relative to the mean flow bounds it closer: Domain::sheared_bound,
+      // with max |v - u| from the particle pass, or Domain::sheared_move where fixed spheres
+      // are placed after it.)
       if (!periodic) lists.book_moved(run.last_move);
       else if (pv.relative) lists.book_moved(s.domain.sheared_bound(rel2, dt));
       else if (streaming) lists.book_moved(s.domain.sheared_move(s.particles.arrays(), s.particles.size(), dt));
@@ -103,7 +105,7 @@ struct Stepper {
       if (periodic) {
         if (s.domain.servo().on) s.hooks.steer_box();
         s.domain.advance(dt);
-        s.domain.update_ghosts(s.particles.arrays(), s.particles.size());
+        s.domain.update_ghosts(s.particles.arrays(), s.particles.size(), s.threads);
       }
       ++run.step;
       run.time += dt;
