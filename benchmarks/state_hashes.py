@@ -8,8 +8,8 @@ every current contact's ids, overlap, force, torque and tangential displacement,
 terms and the step count). The scenes cover every compiled feature: the reference drop at
 N = 1e5 (blocked law, fused pass), the two dense beds (fixed and sliding floor), a rough scene
 with rolling friction, a frictionless drop, a scene of two materials (per-pair parameter lanes),
-the notes' literal history rule, a scene with a tilting, rising wall, a Lees–Edwards box and a
-periodic chute on fixed grains.
+the notes' literal history rule, a scene with a tilting, rising wall, a Lees–Edwards box, a
+periodic chute on fixed grains and a drop onto a floor of small triangles.
 
 Run it on the code before and after a change and compare the printed hashes (or the --json
 files): equal hashes mean equal bits. The two thread counts must also agree with each other.
@@ -127,6 +127,29 @@ def _periodic_chute(threads):
     return sim
 
 
+def _mesh_floor(threads):
+    """The lattice drop of 2,000 spheres onto a floor of 2 x 24 x 24 triangles (each a third of a
+    sphere's diameter across, so a sphere rests on several), inside the four side planes: mesh
+    contacts, their hidden edges and hand-overs."""
+    n = 2000
+    sim = ref.new_simulation(threads)
+    x, v = ref.initial_state(n)
+    sim.add_spheres(x, ref.R, ref.material(), velocities=v)
+    lx, ly = ref.box(n)
+    k = 24
+    gx, gy = np.meshgrid(np.linspace(0.0, lx, k + 1), np.linspace(0.0, ly, k + 1), indexing="ij")
+    vertices = np.stack([gx.ravel(), gy.ravel(), np.zeros(gx.size)], 1)
+    at = lambda i, j: i * (k + 1) + j  # noqa: E731
+    faces = []
+    for i in range(k):
+        for j in range(k):
+            faces += [(at(i, j), at(i + 1, j), at(i + 1, j + 1)), (at(i, j), at(i + 1, j + 1), at(i, j + 1))]
+    sim.add_mesh(vertices, np.array(faces), ref.material())
+    for p, nrm in (((0, 0, 0), (1, 0, 0)), ((lx, 0, 0), (-1, 0, 0)), ((0, 0, 0), (0, 1, 0)), ((0, ly, 0), (0, -1, 0))):
+        sim.add_plane(p, nrm, ref.material())
+    return sim
+
+
 # name: (builder(threads) -> Simulation, steps)
 SCENES = {
     "drop-1e5": (_drop(100_000), 2000),
@@ -139,6 +162,7 @@ SCENES = {
     "tilting-wall": (_tilting_wall, 6000),
     "lees-edwards": (_lees_edwards, 20_000),
     "periodic-chute": (_periodic_chute, 20_000),
+    "mesh-floor": (_mesh_floor, 20_000),
 }
 
 

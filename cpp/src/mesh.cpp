@@ -171,14 +171,15 @@ MeshPoint Mesh::nearest_body(const Vec3& p, Index t) const {
   return m;
 }
 
-bool Mesh::clear_of(const Vec3& x, double r, Index t, Vec3& normal) const {
+bool Mesh::clear_of(const Vec3& x, double r, Index t, Vec3& normal, double& lower) const {
   const Tri& T = tri_[std::size_t(t)];
   const Vec3 d = to_body(x) - T.centroid;
   const double s = T.n.dot(d), r2 = r * r;
   // distance^2 >= s^2 + (in-plane distance to the centroid - round)^2, where positive
   const double in_plane = std::sqrt(std::max(0.0, d.squaredNorm() - s * s)) - T.round;
+  const double lower2 = s * s + (in_plane > 0 ? in_plane * in_plane : 0.0);
   const bool clear = s * s >= r2 || (in_plane > 0 && s * s + in_plane * in_plane >= r2);
-  if (clear) normal = (s >= 0 ? 1.0 : -1.0) * face_normal(t);
+  if (clear) normal = (s >= 0 ? 1.0 : -1.0) * face_normal(t), lower = std::sqrt(lower2);
   return clear;
 }
 

@@ -202,6 +202,7 @@ void NeighborList::build_walls(const Context& c, double skin_now, bool transfer,
   cs.size(near_partner.size(), wall_index.size());
   if (c.walls.has_meshes()) wall_tangent.resize(wall_index.size());
   else wall_tangent.clear();
+  reset_clearance();
   for (Array<double>* a : cs.walls.carried()) zero(*a, c);
   if (transfer) {  // wall contact state, by (id, wall, element)
     const auto width = EntryStore::widths(cs.wall_shape);
@@ -311,6 +312,7 @@ void NeighborList::remove(const Context& c, const Id* gone, std::size_t count) {
   compact(wall_element, wall_to_, walls_kept);
   remap(wall_owner, wall_to_, walls_kept, row_to);
   compact(wall_tangent, wall_to_, walls_kept);
+  compact(wall_clear, wall_to_, walls_kept);
   for (Array<double>* a : c.contacts.walls.carried()) compact(*a, wall_to_, walls_kept);
   compact(c.contacts.walls.touch, wall_to_, walls_kept);
   const std::size_t subset_kept = drop_rows(wall_near_offset, row_to, pair_to, &wall_near, &wall_to_);

@@ -338,6 +338,7 @@ void Simulation::prepare_run() {
   contacts_.size(lists_.near_partner.size(), lists_.wall_index.size());
   max_move_ = max_move();
   lists_.cache_terms(list_context());  // the pair table may have changed since the last run
+  lists_.reset_clearance();  // (and the walls, or the spheres' positions)
   if (!ran_ || !unchecked_.empty() || walls_checked_ < plane_count()) check_overlaps(!ran_);
   ran_ = true;
   unchecked_.clear();

@@ -66,7 +66,7 @@ void Walls::advance(double dt) {
 }
 
 void Walls::measure(const Vec3& x, double r, const Index* wall, const Index* element, const Index* entries,
-                    int n, Plane* tangent, const std::uint8_t* touch) const {
+                    int n, Plane* tangent, const std::uint8_t* touch, Clearance* clear) const {
   thread_local std::vector<MeshFeature> feature;
   thread_local std::vector<std::uint8_t> live;
   feature.resize(std::size_t(n));
@@ -74,13 +74,20 @@ void Walls::measure(const Vec3& x, double r, const Index* wall, const Index* ele
   bool any = false;
   for (int k = 0; k < n; ++k) {
     const Index e = entries[k];
+    const bool touched = touch != nullptr && touch[e];
+    // (Still clear: the plane kept from then lies at least 0.1 gap beyond the sphere.)
+    if (clear && !touched && clear[e].gap > 0 && (x - clear[e].at).squaredNorm() < 0.81 * clear[e].gap * clear[e].gap)
+      continue;  // (not live)
     const std::size_t w = std::size_t(wall[e]);
     Plane& T = tangent[e];
     T = planes_[w];
+    if (clear) clear[e] = {x, -1.0};
     if (kind_[w] != kMesh) continue;
     const Mesh& mesh = meshes_[std::size_t(slot_[w])];
-    if ((touch == nullptr || !touch[e]) && mesh.clear_of(x, r, element[e], T.normal)) {
+    double lower = 0;
+    if (!touched && mesh.clear_of(x, r, element[e], T.normal, lower)) {
       T.point = x - (2 * r + 1) * T.normal;  // clear of the sphere
+      if (clear) clear[e].gap = lower - r;
       continue;  // (not live)
     }
     const MeshPoint m = mesh.nearest(x, element[e]);
@@ -89,6 +96,7 @@ void Walls::measure(const Vec3& x, double r, const Index* wall, const Index* ele
     feature[std::size_t(k)] = m.feature;
     live[std::size_t(k)] = m.distance < r;
     any = any || live[std::size_t(k)];
+    if (clear && !touched) clear[e].gap = m.distance - r;  // (<= 0 where live)
   }
   if (!any) return;
   // Hide what a smooth surface does not have. An edge or vertex is a contact only where it is

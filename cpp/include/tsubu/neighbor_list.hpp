@@ -73,6 +73,11 @@ class NeighborList {
   // Scenes with a mesh: each near-wall entry's tangent plane this step (Walls::measure), written
   // by the contact pass; empty otherwise.
   std::vector<Plane> wall_tangent;
+  // Scenes with a mesh: how far each near-wall entry was found clear of its sphere, and where
+  // (Walls::measure skips it while the sphere stays near there); reset by every rebuild and run
+  // start (reset_clearance), kept through refreshes and removals (entries keep their element).
+  std::vector<Walls::Clearance> wall_clear;
+  void reset_clearance() { wall_clear.assign(wall_tangent.size(), Walls::Clearance{}); }
 
   // ---- bookkeeping ------------------------------------------------------------------------
   // Bounds on the distance any particle moved since the last rebuild and since the last

@@ -30,7 +30,7 @@ struct MeshContacts {
       Index q = p + 1;
       while (q < hi && c.wown[c.wnear[q]] == i) ++q;
       const Vec3 x = vec3(c.x, i);
-      c.meshes->measure(x, c.r[i], c.wall, c.welement, c.wnear + p, int(q - p), c.tangent, c.wtouch);
+      c.meshes->measure(x, c.r[i], c.wall, c.welement, c.wnear + p, int(q - p), c.tangent, c.wtouch, c.clear);
       hand_over(c, x, c.r[i], p, q);
       p = q;
     }

@@ -76,6 +76,7 @@ struct ContactView {
   // contact pass measures them first); null otherwise, and an entry's wall is planes[wall[e]].
   const Walls* meshes;
   Wall* tangent;
+  Walls::Clearance* clear;  // with meshes and no wall moving: Walls::measure's records; else null
   bool moving;  // a wall moves: wall contacts take its velocity
   const PairTable* table;
   const PairParams* same;  // the parameters of every pair when all spheres share a material
@@ -108,7 +109,9 @@ struct ContactView {
         wrough(c.walls.rough.data()), touch(c.pairs.touch.data()), wtouch(c.walls.touch.data()),
         diss(p.dissipated.data()), loaded(l.loaded.data()), wact(l.active.data()),
         planes(s.walls.planes()), meshes(s.walls.has_meshes() ? &s.walls : nullptr),
-        tangent(s.walls.has_meshes() ? l.wall_tangent.data() : nullptr), moving(s.walls.moving()), table(&s.pairs),
+        tangent(s.walls.has_meshes() ? l.wall_tangent.data() : nullptr),
+        clear(s.walls.has_meshes() && !s.walls.moving() ? l.wall_clear.data() : nullptr),
+        moving(s.walls.moving()), table(&s.pairs),
         same(s.sphere_material >= 0 ? &s.pairs(s.sphere_material, s.sphere_material) : nullptr),
         step(std::uint64_t(s.run.step + ahead)), seed(s.options.seed), dt(dt_),
         pairs(Index(l.near_partner.size())), walls(Index(l.wall_near.size())),

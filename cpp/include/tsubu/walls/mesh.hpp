@@ -70,8 +70,8 @@ class Mesh {
   MeshPoint nearest(const Vec3& x, Index t) const;
   // Whether triangle t certainly does not reach a sphere of radius r at x (a cheap lower bound
   // on their distance: the triangle's plane, and the circle about its centroid that holds it);
-  // if so, `normal` is its face normal turned to x's side (world frame).
-  bool clear_of(const Vec3& x, double r, Index t, Vec3& normal) const;
+  // if so, `normal` is its face normal turned to x's side (world frame) and `lower` that bound.
+  bool clear_of(const Vec3& x, double r, Index t, Vec3& normal, double& lower) const;
   // Distance from x to triangle t (for the lists' gap: the sphere's radius is the caller's).
   double distance(const Vec3& x, Index t) const { return nearest_body(to_body(x), t).distance; }
 

@@ -107,8 +107,17 @@ class Walls {
   // `touch` (by entry, or null): entries that touched at the last step get their nearest point
   // even when a cheap bound says they cannot touch now (a contact that slides onto the next
   // triangle hands its state over along its normal).
+  // `clear` (by entry, or null; only while no wall moves): where an entry was found clear of the
+  // sphere by `gap` with the sphere at `at`, it is not measured again while the sphere stays
+  // within 0.9 gap of there (the triangle cannot then reach it, and its tangent plane, kept,
+  // still puts it clear: the contact pass skips it as it would a fresh one); the records are
+  // written here and reset by the lists (NeighborList::reset_clearance).
+  struct Clearance {
+    Vec3 at{0, 0, 0};
+    double gap = -1;  // <= 0: measure
+  };
   void measure(const Vec3& x, double r, const Index* wall, const Index* element, const Index* entries,
-               int n, Plane* tangent, const std::uint8_t* touch = nullptr) const;
+               int n, Plane* tangent, const std::uint8_t* touch = nullptr, Clearance* clear = nullptr) const;
 
   // Takes the walls' positions now as the reference of the rebuild criterion, for particles
   // inside the box [lo, hi].
