@@ -76,12 +76,14 @@ void Walls::measure(const Vec3& x, double r, const Index* wall, const Index* ele
     const Index e = entries[k];
     const bool touched = touch != nullptr && touch[e];
     // (Still clear: the plane kept from then lies at least 0.1 gap beyond the sphere.)
-    if (clear && !touched && clear[e].gap > 0 && (x - clear[e].at).squaredNorm() < 0.81 * clear[e].gap * clear[e].gap)
+    if (clear && !touched && clear[e].gap > 0 && (x - clear[e].at).squaredNorm() < 0.81 * clear[e].gap * clear[e].gap) {
+      clear[e].held = true;
       continue;  // (not live)
+    }
     const std::size_t w = std::size_t(wall[e]);
     Plane& T = tangent[e];
     T = planes_[w];
-    if (clear) clear[e] = {x, -1.0};
+    if (clear) clear[e] = {x, -1.0, false};
     if (kind_[w] != kMesh) continue;
     const Mesh& mesh = meshes_[std::size_t(slot_[w])];
     double lower = 0;

@@ -88,12 +88,16 @@ struct ContactPass {
     auto wall_owner = [&](Index p) { return c.wown[c.wnear[p]]; };
     const Index wlo = part_start(wall_owner, nw, t, nt), whi = part_start(wall_owner, nw, t + 1, nt);
     if (c.meshes) MeshContacts<Law>::measure(c, wlo, whi);
-    const Index wcount = compact(wlo, whi, wact + wlo, [&](Index p) {
+    auto in_contact = [&](Index p) {
       const Index e = c.wnear[p];
       const Wall& P = wall_plane(c, e);
       const double gap = P.distance(vec3(c.x, c.wown[e])) - c.r[c.wown[e]];
       return (gap < 0) | (c.wtouch[e] != 0);
-    });
+    };
+    // (Where the measure held a triangle clear, its plane is not read: most of a fine mesh's.)
+    const Index wcount = c.clear ? compact(wlo, whi, wact + wlo, [&](Index p) {
+      return !c.clear[c.wnear[p]].held && in_contact(p);
+    }) : compact(wlo, whi, wact + wlo, in_contact);
     if constexpr (F::kBlocked) {
       Index e[kBlock];
       for (Index a0 = 0; a0 < wcount; a0 += kBlock) {

@@ -115,6 +115,7 @@ class Walls {
   struct Clearance {
     Vec3 at{0, 0, 0};
     double gap = -1;  // <= 0: measure
+    bool held = false;  // skipped at the last measure: clear of the sphere, by 0.1 gap at least
   };
   void measure(const Vec3& x, double r, const Index* wall, const Index* element, const Index* entries,
                int n, Plane* tangent, const std::uint8_t* touch = nullptr, Clearance* clear = nullptr) const;
