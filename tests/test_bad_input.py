@@ -337,6 +337,14 @@ def test_non_positive_or_non_finite_dt_is_refused(dt, pattern):
     assert sim.dt == 1e-6
 
 
+def test_a_number_in_a_0d_array_is_taken_and_other_arrays_are_refused():
+    # (a state saved with np.savez gives its dt back as a 0-d array)
+    assert tsubu.Simulation(dt=np.array(1e-6)).dt == 1e-6
+    for bad in (np.array([1e-6]), np.array(True), np.array("1e-6")):
+        with pytest.raises(TypeError, match="dt must be a real number"):
+            tsubu.Simulation(dt=bad)
+
+
 def test_dt_above_the_stability_bound_is_refused(ref_material):
     sim = tsubu.Simulation(threads=1)
     sim.add_sphere((0.0, 0.0, 2 * R), R, ref_material)

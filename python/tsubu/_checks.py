@@ -23,7 +23,10 @@ from . import _core
 
 def _real(name: str, value) -> float:
     """A real number (not a bool) as a float: TypeError for anything else, ValueError for an
-    integer beyond the range of floats."""
+    integer beyond the range of floats. A 0-d numpy array of ints or floats (what indexing an
+    ``np.load`` archive gives) counts as its number."""
+    if isinstance(value, np.ndarray) and value.ndim == 0 and value.dtype.kind in "iuf":
+        value = value[()]
     if isinstance(value, bool) or not isinstance(value, numbers.Real):
         raise TypeError(f"{name} must be a real number, got {value!r}")
     try:
