@@ -177,8 +177,8 @@ bool Mesh::clear_of(const Vec3& x, double r, Index t, Vec3& normal, double& lowe
   const double s = T.n.dot(d), r2 = r * r;
   // distance^2 >= s^2 + (in-plane distance to the centroid - round)^2, where positive
   const double in_plane = std::sqrt(std::max(0.0, d.squaredNorm() - s * s)) - T.round;
-  const double lower2 = s * s + (in_plane > 0 ? in_plane * in_plane : 0.0);
-  const bool clear = s * s >= r2 || (in_plane > 0 && s * s + in_plane * in_plane >= r2);
+  const double lower2 = in_plane > 0 ? s * s + in_plane * in_plane : s * s;
+  const bool clear = lower2 >= r2;
   if (clear) normal = (s >= 0 ? 1.0 : -1.0) * face_normal(t), lower = std::sqrt(lower2);
   return clear;
 }

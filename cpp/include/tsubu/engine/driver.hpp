@@ -34,7 +34,7 @@ struct Stepper {
     const bool driven = moving || (s.fixed && s.fixed->moving()) || s.domain.shear_rate() != 0 ||
                         s.domain.servo().on;
     const bool periodic = s.domain.periodic();
-    const bool streaming = s.domain.sheared() && s.walls.count() == 0;
+    const bool streaming = s.streaming();
     PhaseTimer clock(run.phase_seconds);
     // With fixed walls no energy enters the scene: the balance is checked every kEnergyCheck
     // steps (RunHooks::audit), which catches the bounded bursts that a dense pack run above its

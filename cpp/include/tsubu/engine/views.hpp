@@ -155,7 +155,7 @@ struct ParticleView {
         n(Index(s.particles.size())), nb(Index(l.busy.size())), loaded(l.loaded.data()),
         sums(l, s.contacts, s.particles), sum_entry(l.sum_entry.data()),
         sum_offset(l.sum_offset.data()), flat(l.sum_offset.size() == std::size_t(nb) + 1),
-        relative(s.domain.sheared() && s.walls.count() == 0 && !s.fixed),
+        relative(s.streaming() && !s.fixed),
         flow(s.domain.mean_flow()), threads(s.threads), dt(dt_), gx(dt_ * s.options.gravity.x()),
         gy(dt_ * s.options.gravity.y()), gz(dt_ * s.options.gravity.z()) {}
 };

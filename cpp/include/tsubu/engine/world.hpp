@@ -116,6 +116,10 @@ struct World {
   double max_move;      // m: the most a step may move a sphere (Simulation::max_move)
   FixedSpheres* fixed = nullptr;  // the fixed spheres; null when there are none
   bool outlets = false;           // whether the scene has outlets (RunHooks::remove_outgoing)
+
+  // A Lees–Edwards box without walls: the lists bound the spheres' motion relative to the mean
+  // flow (Domain::sheared_bound).
+  bool streaming() const { return domain.sheared() && walls.count() == 0; }
 };
 
 }  // namespace detail
