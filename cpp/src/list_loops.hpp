@@ -77,5 +77,4 @@ inline void insertion_sort(Index* first, Index* last, Key key) {
   }
 }
 
-
 }  // namespace tsubu::list_loops
