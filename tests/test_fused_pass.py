@@ -102,6 +102,18 @@ def test_fused_steps_give_the_bits_of_two_passes(two_pass, threads):
     assert_same_bits(one_call(threads), two_pass)
 
 
+@pytest.mark.filterwarnings("ignore::tsubu.PerformanceWarning")  # (more threads than cores)
+@pytest.mark.parametrize("threads", [16, 24])
+def test_parts_shorter_than_the_reach_give_the_same_bits(two_pass, threads):
+    """With 16 or 24 threads a thread's part (4,225 or 2,817 spheres) is shorter than the
+    stretch of the array that its owners' pairs span (below + above: over 4,225 places here,
+    some three lattice layers of 676 each way): an owner near the bottom of a part then has
+    partners in both neighbouring threads' parts, and beyond them.
+    Each thread waits for the posts of every thread whose spheres its owners reach, not for
+    the whole team (fused_pass.hpp): the bits must not depend on it."""
+    assert_same_bits(one_call(threads), two_pass)
+
+
 def test_unstable_run_stops_at_the_same_step_with_the_same_state():
     """Two spheres in the middle of the pack driven into each other at 10 m/s each: their
     overlap passes max_overlap (0.5 of a radius) at step 20, after 13 fused steps (a skin of

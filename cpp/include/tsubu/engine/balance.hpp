@@ -7,11 +7,51 @@
 // and every sum keeps its order), so the results are the same bits for any cuts.
 #pragma once
 #include <algorithm>
+#include <atomic>
+#include <cstdint>
+#include <memory>
+#include <thread>
 #include <vector>
 
 #include "../types.hpp"
 
 namespace tsubu::detail {
+
+// Where a thread needs only some other threads to have reached a point (the fused pass: its
+// owners' partners moved), it waits for their posts instead of a barrier of the whole team, so
+// that a slow thread holds up only the threads that read its particles. Each parallel region
+// that uses them posts a new round number: no flag is ever reset.
+class Signals {
+ public:
+  // Outside the parallel region, before it: the round its posts carry (t < nt).
+  std::uint64_t open(int nt) {
+    if (nt > size_) flags_.reset(new Flag[std::size_t(nt)]), size_ = nt;
+    return ++round_;
+  }
+  void post(int t, std::uint64_t round) { flags_[t].round.store(round, std::memory_order_release); }
+  // Until thread s has posted `round`: spins (the threads are pinned, a core each), then, should
+  // the team outnumber the cores, yields to the thread it waits for.
+  void wait(int s, std::uint64_t round) const {
+    for (long spin = 0; flags_[s].round.load(std::memory_order_acquire) < round; ++spin) {
+      if (spin < kSpins) relax();
+      else std::this_thread::yield();
+    }
+  }
+
+ private:
+  static constexpr long kSpins = 1L << 12;
+  static void relax() {
+#if defined(__x86_64__) || defined(__i386__)
+    __builtin_ia32_pause();
+#endif
+  }
+  struct alignas(64) Flag {  // (a cache line each: a post does not disturb the other flags' readers)
+    std::atomic<std::uint64_t> round{0};
+  };
+  std::unique_ptr<Flag[]> flags_;
+  int size_ = 0;
+  std::uint64_t round_ = 0;
+};
 
 class Balance {
  public:
@@ -39,6 +79,9 @@ class Balance {
   void add(int t, double seconds) {
     if (t < int(busy_.size())) busy_[t] += seconds;
   }
+
+  // The threads' signals to each other (Signals).
+  Signals& signals() { return signals_; }
 
   // After a step (outside the parallel regions): moves the cuts every kEvery steps.
   void step() {
@@ -70,6 +113,7 @@ class Balance {
   std::vector<Index> cut_, scratch_;
   std::vector<double> busy_;
   long steps_ = 0;
+  Signals signals_;
 };
 
 }  // namespace tsubu::detail

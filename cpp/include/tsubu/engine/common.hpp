@@ -113,14 +113,9 @@ inline Share share(Index n, const Index* cut, int planned) {
   if (me.nt == planned) me.lo = cut[me.t], me.hi = cut[me.t + 1];
   return me;
 }
-
-// [lo, hi) of part t of nt of an entry list sorted by owner, cut at owner boundaries, so that
-// each owner's entries (and its dissipation sum) belong to one thread.
-template <class Owner>
-Index part_start(Owner&& owner, Index count, int t, int nt) {
-  Index b = Index((std::int64_t(count) * t) / nt);
-  while (b > 0 && b < count && owner(b - 1) == owner(b)) --b;
-  return b;
+// Where part s of a team of nt starts (s = nt: n), as share() cuts.
+inline Index part_begin(Index n, const Index* cut, int planned, int nt, int s) {
+  return nt == planned ? cut[s] : Index(std::int64_t(n) * s / nt);
 }
 
 // Scans entries [lo, hi) without branches, keeping in `act` those that pass `keep`; returns

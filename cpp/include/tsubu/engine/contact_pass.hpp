@@ -80,13 +80,11 @@ struct ContactPass {
     }
   }
 
-  // Part t of nt of the near-wall entries in contact or just released; after every pair, so that
-  // an owner's dissipation sum keeps one order.
-  static void wall_part(const ContactView& c, int t, int nt, Scan& scan, Block& block, Found& f) {
-    const Index nw = c.walls;
+  // The near-wall entries of particles [lo, hi) in contact or just released; after the pairs
+  // those particles own, so that an owner's dissipation sum keeps one order.
+  static void wall_part(const ContactView& c, Index lo, Index hi, Scan& scan, Block& block, Found& f) {
     Index* const wact = c.wact;
-    auto wall_owner = [&](Index p) { return c.wown[c.wnear[p]]; };
-    const Index wlo = part_start(wall_owner, nw, t, nt), whi = part_start(wall_owner, nw, t + 1, nt);
+    const Index wlo = c.wnear_offset[lo], whi = c.wnear_offset[hi];
     if (c.meshes) MeshContacts<Law>::measure(c, wlo, whi);
     auto in_contact = [&](Index p) {
       const Index e = c.wnear[p];
@@ -116,8 +114,8 @@ struct ContactPass {
     }
   }
 
-  // The whole pass, in one parallel region: each thread takes a contiguous part of the near
-  // list, cut at owner boundaries, then its part of the near-wall entries.
+  // The whole pass, in one parallel region: each thread takes the near entries, then the
+  // near-wall entries, that its particles own.
   // `cut`: the threads' parts of the particles (balance.hpp); each evaluates the entries its
   // particles own.
   static Found run(const ContactView& c, const Index* cut, Balance& parts, RegionTimes& times) {
@@ -132,10 +130,7 @@ struct ContactPass {
       Block block(c.same);
       Found f;
       if (c.pairs > 0) pair_range(c, c.owned[me.lo], c.owned[me.hi], c.far, scan, block, f);
-      work.stop();
-#pragma omp barrier
-      work.start();
-      wall_part(c, me.t, me.nt, scan, block, f);
+      wall_part(c, me.lo, me.hi, scan, block, f);
       excess = f.excess, fmax = f.fmax, bad = f.bad;
       work.stop();
       clock.done(work, me.t, me.nt, parts);
