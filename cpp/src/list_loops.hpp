@@ -11,6 +11,18 @@
 
 namespace tsubu::list_loops {
 
+// Inside a parallel region: this thread's number and the team's size.
+struct Part {
+  int t, nt;
+};
+inline Part part() {
+#ifdef _OPENMP
+  return {omp_get_thread_num(), omp_get_num_threads()};
+#else
+  return {0, 1};
+#endif
+}
+
 // The k in [0, n) that pass `keep`, in order, into `out`: counted in parts, then written.
 template <class Keep>
 inline void filter(long n, Keep&& keep, Array<Index>& out, const NeighborList::Context& c) {
@@ -28,11 +40,7 @@ inline void filter(long n, Keep&& keep, Array<Index>& out, const NeighborList::C
   std::vector<Index> start(static_cast<std::size_t>(most) + 1, 0);
 #pragma omp parallel num_threads(most) if (most > 1)
   {
-#ifdef _OPENMP
-    const int t = omp_get_thread_num(), nt = omp_get_num_threads();
-#else
-    const int t = 0, nt = 1;
-#endif
+    const auto [t, nt] = part();
     const long lo = n * t / nt, hi = n * (t + 1) / nt;
     Index count = 0;
     for (long k = lo; k < hi; ++k) count += keep(k) ? 1 : 0;
@@ -48,6 +56,35 @@ inline void filter(long n, Keep&& keep, Array<Index>& out, const NeighborList::C
       if (keep(k)) out[at++] = static_cast<Index>(k);
   }
 }
+
+// Row offsets from row counts: a[k + 1] += a[k] for k in [0, n), a[0] given. From kScanRows rows
+// on, in parts on up to `threads` threads (each part summed, the parts' sums run through, then
+// each part written): integer sums, the same for any split.
+constexpr long kScanRows = 1L << 16;
+inline void running_sums(Index* a, long n, int threads) {
+  if (threads <= 1 || n < kScanRows) {
+    for (long k = 0; k < n; ++k) a[k + 1] += a[k];
+    return;
+  }
+  std::vector<Index> before(static_cast<std::size_t>(threads) + 1, 0);
+#pragma omp parallel num_threads(threads)
+  {
+    const auto [t, nt] = part();
+    const long lo = n * t / nt, hi = n * (t + 1) / nt;
+    Index sum = 0;
+    for (long k = lo; k < hi; ++k) sum += a[k + 1];
+    before[t + 1] = sum;
+#pragma omp barrier
+#pragma omp single
+    {
+      before[0] = a[0];
+      for (int u = 0; u < nt; ++u) before[u + 1] += before[u];
+    }
+    Index run = before[t];
+    for (long k = lo; k < hi; ++k) a[k + 1] = (run += a[k + 1]);
+  }
+}
+inline int scan_threads(const NeighborList::Context& c) { return c.parallel ? c.threads : 1; }
 
 // a[k] = 0 for every k, the rows shared between the threads.
 inline void zero(Array<double>& a, const NeighborList::Context& c) {

@@ -36,12 +36,14 @@ void NeighborList::refresh_near(const Context& c, bool transfer, bool reordered)
     for (Index e = pair_offset[i]; e < pair_offset[i + 1]; ++e) count += near(i, pair_partner[e]);
     near_offset[i + 1] = count;
   }
-  for (std::size_t i = 0; i < n; ++i) near_offset[i + 1] += near_offset[i];
+  running_sums(near_offset.data(), ni, scan_threads(c));
   const std::size_t m = static_cast<std::size_t>(near_offset[n]);
   fit(near_owner, m);
   fit(near_partner, m);
   fit(near_cut2, m);
-#pragma omp parallel for schedule(static) num_threads(c.threads) if (c.parallel)
+  // (How far a partner lies down or up the array from its owner: the reverse index's reach.)
+  Index below = 0, above = 0;
+#pragma omp parallel for schedule(static) num_threads(c.threads) if (c.parallel) reduction(max : below, above)
   for (long i = 0; i < ni; ++i) {
     Index q = near_offset[i];
     for (Index e = pair_offset[i]; e < pair_offset[i + 1]; ++e) {
@@ -50,6 +52,8 @@ void NeighborList::refresh_near(const Context& c, bool transfer, bool reordered)
       near_owner[q] = static_cast<Index>(i);
       near_partner[q] = j;
       near_cut2[q++] = (r[i] + r[j]) * (r[i] + r[j]);
+      below = std::max(below, static_cast<Index>(i) - j);
+      above = std::max(above, j - static_cast<Index>(i));
     }
   }
 
@@ -104,11 +108,43 @@ void NeighborList::refresh_near(const Context& c, bool transfer, bool reordered)
   // 3. Reverse index: for each particle, the entries where it is the partner, by owner id.
   //    (A ghost partner's entries are its source's.)
   near_rev_offset.assign(n + 1, 0);
-  for (std::size_t q = 0; q < m; ++q) ++near_rev_offset[c.domain.source(near_partner[q], n) + 1];
-  for (std::size_t i = 0; i < n; ++i) near_rev_offset[i + 1] += near_rev_offset[i];
   fit(near_rev, m);
-  {
-    Array<Index>& fill = scratch_int_;
+  Array<Index>& fill = scratch_int_;
+  if (scan_threads(c) > 1 && c.domain.ghosts() == 0 && ni >= kScanRows) {
+    // Each thread takes the rows of a range of partners [j0, j1), reading only the entries of
+    // the owners that can reach them ([j0 - above, j1 + below)), in entry order: each row is
+    // filled in the order of the one-thread loop below.
+    fill.resize(n);
+    auto rows = [&](int t, int nt, Index& j0, Index& j1, Index& q0, Index& q1) {
+      j0 = static_cast<Index>(ni * t / nt), j1 = static_cast<Index>(ni * (t + 1) / nt);
+      q0 = near_offset[std::max<Index>(0, j0 - above)];
+      q1 = near_offset[std::min<Index>(static_cast<Index>(ni), j1 + below)];
+    };
+#pragma omp parallel num_threads(c.threads)
+    {
+      const list_loops::Part me = list_loops::part();
+      Index j0, j1, q0, q1;
+      rows(me.t, me.nt, j0, j1, q0, q1);
+      for (Index q = q0; q < q1; ++q) {
+        const Index j = near_partner[q];
+        if (j >= j0 && j < j1) ++near_rev_offset[j + 1];
+      }
+    }
+    running_sums(near_rev_offset.data(), ni, scan_threads(c));
+#pragma omp parallel num_threads(c.threads)
+    {
+      const list_loops::Part me = list_loops::part();
+      Index j0, j1, q0, q1;
+      rows(me.t, me.nt, j0, j1, q0, q1);
+      for (Index j = j0; j < j1; ++j) fill[j] = near_rev_offset[j];
+      for (Index q = q0; q < q1; ++q) {
+        const Index j = near_partner[q];
+        if (j >= j0 && j < j1) near_rev[fill[j]++] = q;
+      }
+    }
+  } else {
+    for (std::size_t q = 0; q < m; ++q) ++near_rev_offset[c.domain.source(near_partner[q], n) + 1];
+    running_sums(near_rev_offset.data(), ni, scan_threads(c));
     fill.assign(near_rev_offset.begin(), near_rev_offset.end() - 1);
     for (std::size_t q = 0; q < m; ++q) near_rev[fill[c.domain.source(near_partner[q], n)]++] = static_cast<Index>(q);
   }
@@ -146,7 +182,7 @@ void NeighborList::refresh_near(const Context& c, bool transfer, bool reordered)
       }
       wall_near_offset[i + 1] = count;
     }
-    for (std::size_t i = 0; i < n; ++i) wall_near_offset[i + 1] += wall_near_offset[i];
+    running_sums(wall_near_offset.data(), ni, scan_threads(c));
     wall_near.resize(static_cast<std::size_t>(wall_near_offset[n]));
 #pragma omp parallel for schedule(static) num_threads(c.threads)
     for (long i = 0; i < ni; ++i) {
@@ -183,14 +219,16 @@ void NeighborList::build_sum_entries(const Context& c) {
   }
   fit(sum_offset, nb + 1);
   sum_offset[0] = 0;
-  for (std::size_t b = 0; b < nb; ++b) {
+  const long nbl = static_cast<long>(nb);
+#pragma omp parallel for schedule(static) num_threads(c.threads) if (c.parallel)
+  for (long b = 0; b < nbl; ++b) {
     const Index k = busy[b];
-    sum_offset[b + 1] = sum_offset[b] + (wall_near_offset[k + 1] - wall_near_offset[k]) +
+    sum_offset[b + 1] = (wall_near_offset[k + 1] - wall_near_offset[k]) +
                         (near_offset[k + 1] - near_offset[k]) +
                         (near_rev_offset[k + 1] - near_rev_offset[k]);
   }
+  running_sums(sum_offset.data(), nbl, scan_threads(c));
   fit(sum_entry, static_cast<std::size_t>(sum_offset[nb]));
-  const long nbl = static_cast<long>(nb);
 #pragma omp parallel for schedule(static) num_threads(c.threads) if (c.parallel)
   for (long b = 0; b < nbl; ++b) {
     const Index k = busy[b];

@@ -157,7 +157,7 @@ void NeighborList::build_verlet(const Context& c, const CellGrid& grid, double s
       for_each_neighbor(i, [&](Index) { ++count; });
       pair_offset[i + 1] = count;
     }
-    for (std::size_t i = 0; i < n; ++i) pair_offset[i + 1] += pair_offset[i];
+    running_sums(pair_offset.data(), static_cast<long>(n), scan_threads(c));
     pair_partner.resize(static_cast<std::size_t>(pair_offset[n]));
 #pragma omp parallel for schedule(static) num_threads(c.threads) if (c.parallel)
     for (Index i = 0; i < ni; ++i) {
@@ -185,7 +185,7 @@ void NeighborList::build_walls(const Context& c, double skin_now, bool transfer,
     c.walls.for_each_near(vec3(x, i), r[i], skin_now, [&](Index, Index) { ++count; });
     wall_offset[i + 1] = count;
   }
-  for (std::size_t i = 0; i < n; ++i) wall_offset[i + 1] += wall_offset[i];
+  running_sums(wall_offset.data(), ni, scan_threads(c));
   wall_index.resize(static_cast<std::size_t>(wall_offset[n]));
   wall_element.resize(wall_index.size());
   wall_owner.resize(wall_index.size());
