@@ -56,6 +56,8 @@ void NeighborList::refresh_near(const Context& c, bool transfer, bool reordered)
       above = std::max(above, j - static_cast<Index>(i));
     }
   }
+  reach_below = below;
+  reach_above = above;
 
   // 2. Contact state, carried over by (owner id, partner id): rows are sorted by partner id.
   cs.size(near_partner.size(), wall_index.size());
@@ -115,31 +117,31 @@ void NeighborList::refresh_near(const Context& c, bool transfer, bool reordered)
     // the owners that can reach them ([j0 - above, j1 + below)), in entry order: each row is
     // filled in the order of the one-thread loop below.
     fill.resize(n);
-    auto rows = [&](int t, int nt, Index& j0, Index& j1, Index& q0, Index& q1) {
-      j0 = static_cast<Index>(ni * t / nt), j1 = static_cast<Index>(ni * (t + 1) / nt);
-      q0 = near_offset[std::max<Index>(0, j0 - above)];
-      q1 = near_offset[std::min<Index>(static_cast<Index>(ni), j1 + below)];
+    struct Rows {
+      Index j0, j1, q0, q1;  // partners [j0, j1); the entries [q0, q1) that can reach them
+    };
+    auto rows = [&] {
+      const auto [t, nt] = part();
+      const Index j0 = static_cast<Index>(ni * t / nt), j1 = static_cast<Index>(ni * (t + 1) / nt);
+      return Rows{j0, j1, near_offset[std::max<Index>(0, j0 - above)],
+                  near_offset[std::min<Index>(static_cast<Index>(ni), j1 + below)]};
     };
 #pragma omp parallel num_threads(c.threads)
     {
-      const list_loops::Part me = list_loops::part();
-      Index j0, j1, q0, q1;
-      rows(me.t, me.nt, j0, j1, q0, q1);
-      for (Index q = q0; q < q1; ++q) {
+      const Rows me = rows();
+      for (Index q = me.q0; q < me.q1; ++q) {
         const Index j = near_partner[q];
-        if (j >= j0 && j < j1) ++near_rev_offset[j + 1];
+        if (j >= me.j0 && j < me.j1) ++near_rev_offset[j + 1];
       }
     }
     running_sums(near_rev_offset.data(), ni, scan_threads(c));
 #pragma omp parallel num_threads(c.threads)
     {
-      const list_loops::Part me = list_loops::part();
-      Index j0, j1, q0, q1;
-      rows(me.t, me.nt, j0, j1, q0, q1);
-      for (Index j = j0; j < j1; ++j) fill[j] = near_rev_offset[j];
-      for (Index q = q0; q < q1; ++q) {
+      const Rows me = rows();
+      for (Index j = me.j0; j < me.j1; ++j) fill[j] = near_rev_offset[j];
+      for (Index q = me.q0; q < me.q1; ++q) {
         const Index j = near_partner[q];
-        if (j >= j0 && j < j1) near_rev[fill[j]++] = q;
+        if (j >= me.j0 && j < me.j1) near_rev[fill[j]++] = q;
       }
     }
   } else {
@@ -241,14 +243,21 @@ void NeighborList::build_sum_entries(const Context& c) {
   }
 }
 
-void NeighborList::measure(const Context& c) {
-  Index below = 0, above = 0, most = 0;
-  const long m = static_cast<long>(near_partner.size()), nb = static_cast<long>(busy.size());
+void NeighborList::measure_reach(const Context& c) {
+  Index below = 0, above = 0;
+  const long m = static_cast<long>(near_partner.size());
 #pragma omp parallel for schedule(static) num_threads(c.threads) if (c.parallel) reduction(max : below, above)
   for (long q = 0; q < m; ++q) {
     below = std::max(below, near_owner[q] - near_partner[q]);
     above = std::max(above, near_partner[q] - near_owner[q]);
   }
+  reach_below = below;
+  reach_above = above;
+}
+
+void NeighborList::measure(const Context& c) {
+  Index most = 0;
+  const long nb = static_cast<long>(busy.size());
 #pragma omp parallel for schedule(static) num_threads(c.threads) if (c.parallel) reduction(max : most)
   for (long b = 0; b < nb; ++b) {
     const Index k = busy[b];
@@ -256,8 +265,6 @@ void NeighborList::measure(const Context& c) {
                               (near_offset[k + 1] - near_offset[k]) +
                               (near_rev_offset[k + 1] - near_rev_offset[k]));
   }
-  reach_below = below;
-  reach_above = above;
   max_entries = most;
 }
 

@@ -318,6 +318,7 @@ void NeighborList::remove(const Context& c, const Id* gone, std::size_t count) {
   const std::size_t subset_kept = drop_rows(wall_near_offset, row_to, pair_to, &wall_near, &wall_to_);
   remap(wall_near, pair_to, subset_kept, wall_to_);
 
+  measure_reach(c);
   index_entries(c);
 }
 

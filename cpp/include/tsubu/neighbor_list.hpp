@@ -178,12 +178,14 @@ class NeighborList {
   // Builds the near list from the Verlet list; with `transfer`, carries the stashed state over
   // by (owner id, partner id); `reordered`: the particles were re-sorted since the stash.
   void refresh_near(const Context& c, bool transfer, bool reordered);
-  // busy, loaded, the sum entries, the reaches and `active` from the lists' entries.
+  // busy, loaded, the sum entries, max_entries and `active` from the lists' entries.
   void index_entries(const Context& c);
   // sum_entry and sum_offset from the near list, the reverse index and the near-wall list.
   void build_sum_entries(const Context& c);
-  // reach_below, reach_above and max_entries from the near lists.
+  // max_entries from the near lists.
   void measure(const Context& c);
+  // reach_below and reach_above from the near list (refresh_near finds them as it fills it).
+  void measure_reach(const Context& c);
   // The energy a contact loses when it opens (its tangential spring; the engine releases).
   static double spring_energy(const Context& c, int material_a, int material_b,
                               const Array<double>& xi, std::size_t e);

@@ -82,7 +82,7 @@ struct ContactView {
   const PairParams* same;  // the parameters of every pair when all spheres share a material
   std::uint64_t step, seed;
   double dt;
-  Index pairs, walls;  // near-pair and near-wall entries
+  Index pairs;  // near-pair entries
   Index n;             // particles (near-list owners)
   int threads;
   bool far;  // a large scene: partners' positions are prefetched
@@ -114,7 +114,7 @@ struct ContactView {
         moving(s.walls.moving()), table(&s.pairs),
         same(s.sphere_material >= 0 ? &s.pairs(s.sphere_material, s.sphere_material) : nullptr),
         step(std::uint64_t(s.run.step + ahead)), seed(s.options.seed), dt(dt_),
-        pairs(Index(l.near_partner.size())), walls(Index(l.wall_near.size())),
+        pairs(Index(l.near_partner.size())),
         n(Index(s.particles.size())), threads(s.threads),
         far(s.particles.size() >= kFar) {}
 };
