@@ -211,6 +211,8 @@ void register_simulation(py::class_<Sim>& cls) {
   option(cls, "initial_overlap", &tsubu::Options::initial_overlap);
   option(cls, "allow_unstable_dt", &tsubu::Options::allow_unstable_dt);
   option(cls, "rebuild_every_step", &tsubu::Options::rebuild_every_step);
+  cls.def_property("_mesh_sheets", &Sim::mesh_sheets, &Sim::set_mesh_sheets);  // (testing aids)
+  cls.def_property_readonly("_mesh_sheet_count", &Sim::mesh_sheet_count);
   enum_option(cls, "history_rule", "tangential_history", &tsubu::Options::history);
   enum_option(cls, "slip_rule", "slip_rule", &tsubu::Options::slip);
   law_choices(cls);

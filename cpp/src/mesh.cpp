@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <numeric>
 #include <stdexcept>
 #include <string>
@@ -181,6 +182,76 @@ bool Mesh::clear_of(const Vec3& x, double r, Index t, Vec3& normal, double& lowe
   const bool clear = lower2 >= r2;
   if (clear) normal = (s >= 0 ? 1.0 : -1.0) * face_normal(t), lower = std::sqrt(lower2);
   return clear;
+}
+
+bool Mesh::over_face(const Vec3& x, Index t) const {
+  const Tri& T = tri_[std::size_t(t)];
+  const Vec3 ab = T.b - T.a, ac = T.c - T.a, ap = to_body(x) - T.a;
+  const double d00 = ab.dot(ab), d01 = ab.dot(ac), d11 = ac.dot(ac), d20 = ap.dot(ab), d21 = ap.dot(ac);
+  const double whole = d00 * d11 - d01 * d01;  // the barycentric coordinates times this
+  const double v = d11 * d20 - d01 * d21, w = d00 * d21 - d01 * d20, u = whole - v - w;
+  const double margin = kInside * whole;
+  return v > margin && w > margin && u > margin;
+}
+
+double Mesh::face_room(const Vec3& x, Index t) const {
+  if (moved_) return 0;
+  const Tri& T = tri_[std::size_t(t)];
+  const Vec3 ab = T.b - T.a, ac = T.c - T.a, ap = x - T.a;
+  const double d00 = ab.dot(ab), d01 = ab.dot(ac), d11 = ac.dot(ac), d20 = ap.dot(ab), d21 = ap.dot(ac);
+  const double whole = d00 * d11 - d01 * d01;
+  const double v = d11 * d20 - d01 * d21, w = d00 * d21 - d01 * d20, u = whole - v - w;
+  if (!(std::min({u, v, w}) > 1e-6 * whole)) return 0;
+  // (a barycentric coordinate is the distance to its edge over the height: twice the area,
+  // sqrt(whole), over the edge's length)
+  const double area2 = std::sqrt(whole);
+  const double to_edge = std::min({u / std::sqrt((T.c - T.b).squaredNorm()), v / std::sqrt(d11), w / std::sqrt(d00)}) * area2 / whole;
+  return 0.5 * to_edge;
+}
+
+namespace {
+double segment_distance2(const Vec3& p, const Vec3& a, const Vec3& b) {
+  const Vec3 ab = b - a;
+  const double len2 = ab.squaredNorm();
+  const double s = len2 > 0 ? std::clamp(ab.dot(p - a) / len2, 0.0, 1.0) : 0.0;
+  return (p - (a + s * ab)).squaredNorm();
+}
+}  // namespace
+
+bool Mesh::flat_sheet(const Vec3& x, double reach, const Index* tris, int n) const {
+  if (n < 2) return false;
+  const Vec3 X = to_body(x);
+  const Tri& first = tri_[std::size_t(tris[0])];
+  double size = 0, smallest = std::numeric_limits<double>::infinity();
+  for (int k = 0; k < n; ++k) {
+    size = std::max(size, tri_[std::size_t(tris[k])].round);
+    smallest = std::min(smallest, tri_[std::size_t(tris[k])].round);
+  }
+  // (A neighbour tilted by 1e-12 leans over an edge by reach x 1e-12 at most: far inside the
+  // kInside margin of a triangle not a thousand times smaller than the reach.)
+  if (!(reach < 1e3 * smallest)) return false;
+  for (int k = 0; k < n; ++k) {
+    const Tri& T = tri_[std::size_t(tris[k])];
+    const double side = T.n.dot(first.n) >= 0 ? 1.0 : -1.0;
+    if ((T.n - side * first.n).cwiseAbs().maxCoeff() > 1e-12) return false;
+    for (const Vec3* corner : {&T.a, &T.b, &T.c})
+      if (std::abs(first.n.dot(*corner - first.a)) > 1e-10 * size) return false;
+  }
+  // Every edge within reach inside the sheet (no rim, ridge, crack or fin): then the sheet
+  // covers the plane around x out to reach.
+  for (int k = 0; k < n; ++k) {
+    const Tri& T = tri_[std::size_t(tris[k])];
+    const Vec3* corner[3] = {&T.a, &T.b, &T.c};
+    for (int j = 0; j < 3; ++j) {
+      const int l = (j + 1) % 3;
+      if (!(segment_distance2(X, *corner[j], *corner[l]) < reach * reach)) continue;
+      const MeshFeature edge{MeshFeature::kEdge, T.canon[std::size_t(j)], T.canon[std::size_t(l)]};
+      int holders = 0;
+      for (int m = 0; m < n; ++m) holders += has(tris[m], edge) ? 1 : 0;
+      if (holders != 2) return false;
+    }
+  }
+  return true;
 }
 
 MeshPoint Mesh::nearest(const Vec3& x, Index t) const {

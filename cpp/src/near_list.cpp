@@ -158,7 +158,7 @@ void NeighborList::refresh_near(const Context& c, bool transfer, bool reordered)
   // 4. The near-wall entries, and the particles with entries.
   const bool moving = c.walls.moving();
   auto keeps = [&](long i, Index e) {
-    return moving || cs.walls.touch[e] || c.walls.gap(vec3(x, i), r[i], wall_index[e], wall_element[e]) < reach;
+    return moving || cs.walls.touch[e] || c.walls.within(vec3(x, i), r[i], wall_index[e], wall_element[e], reach);
   };
   wall_near_offset.resize(n + 1);
   wall_near_offset[0] = 0;
@@ -193,10 +193,73 @@ void NeighborList::refresh_near(const Context& c, bool transfer, bool reordered)
         if (wall_keep_[e]) wall_near[p++] = e;
     }
   }
+  gather_sheets(c);
   index_entries(c);
   cache_terms(c);
   moved_near = 0;
   ++refreshes;
+}
+
+void NeighborList::gather_sheets(const Context& c) {
+  wall_sheet.clear();
+  sheet_offset.assign(1, 0);
+  sheet_entry.clear();
+  if (!c.sheets || !c.walls.has_meshes() || c.walls.moving() || c.law.sticky) return;
+  const std::size_t n = c.particles.size();
+  const double* x = c.particles.arrays().x.data();
+  const double* r = c.particles.arrays().radius.data();
+  const std::uint8_t* touch = c.contacts.walls.touch.data();
+  const double reach = near_skin();
+  std::vector<Index>& tris = tris_;
+  // In place: each sphere's positions move down over the ones its sheets folded.
+  fit(wall_sheet, wall_near.size());
+  Index out = 0, from = 0;
+  for (std::size_t i = 0; i < n; ++i) {
+    const Index end = wall_near_offset[i + 1];
+    for (Index p = from; p < end;) {
+      const Index w = wall_index[wall_near[p]];
+      Index q = p + 1;
+      while (q < end && wall_index[wall_near[q]] == w) ++q;
+      Index holder = -1;
+      int touched = 0;
+      if (q - p >= 2 && c.walls.kind(int(w)) == Walls::kMesh) {
+        tris.clear();
+        for (Index a = p; a < q; ++a) {
+          tris.push_back(wall_element[wall_near[a]]);
+          if (touch[wall_near[a]]) ++touched, holder = wall_near[a];
+        }
+        const Mesh& mesh = c.walls.mesh(int(w));
+        if (touched > 1 || !mesh.flat_sheet(vec3(x, i), r[i] + reach, tris.data(), int(tris.size()))) {
+          touched = -1;
+        } else if (holder < 0) {  // the triangle the sphere lies over, if any
+          holder = wall_near[p];
+          for (Index a = p; a < q; ++a)
+            if (mesh.over_face(vec3(x, i), wall_element[wall_near[a]])) {
+              holder = wall_near[a];
+              break;
+            }
+        }
+      } else {
+        touched = -1;
+      }
+      if (touched < 0) {  // not a sheet: its positions as they are
+        for (Index a = p; a < q; ++a) wall_sheet[out] = -1, wall_near[out++] = wall_near[a];
+      } else {
+        sheet_entry.insert(sheet_entry.end(), wall_near.begin() + p, wall_near.begin() + q);
+        wall_sheet[out] = static_cast<Index>(sheet_offset.size()) - 1;
+        sheet_offset.push_back(static_cast<Index>(sheet_entry.size()));
+        wall_near[out++] = holder;
+      }
+      p = q;
+    }
+    from = end;
+    wall_near_offset[i + 1] = out;
+  }
+  wall_near.resize(static_cast<std::size_t>(out));
+  wall_sheet.resize(static_cast<std::size_t>(out));
+  if (sheet_offset.size() == 1) wall_sheet.clear();  // (no sheet: the step takes the plain path)
+  sheet_slot.assign(sheet_offset.size() - 1, -1);
+  sheet_room.assign(4 * sheet_slot.size(), -1.0);
 }
 
 void NeighborList::index_entries(const Context& c) {
@@ -217,6 +280,7 @@ void NeighborList::build_sum_entries(const Context& c) {
   if (largest >= (std::size_t(1) << 29)) {  // no room for the tags: the particle pass loops
     sum_offset.clear();
     sum_entry.clear();
+    std::fill(sheet_slot.begin(), sheet_slot.end(), -1);
     return;
   }
   fit(sum_offset, nb + 1);
@@ -236,7 +300,11 @@ void NeighborList::build_sum_entries(const Context& c) {
     const Index k = busy[b];
     std::uint32_t* out = sum_entry.data() + sum_offset[b];
     auto put = [&](Index e, std::uint32_t kind) { *out++ = (std::uint32_t(e) << 3) | kind; };
-    for (Index p = wall_near_offset[k]; p < wall_near_offset[k + 1]; ++p) put(wall_near[p], 2);
+    for (Index p = wall_near_offset[k]; p < wall_near_offset[k + 1]; ++p) {
+      if (!wall_sheet.empty() && wall_sheet[p] >= 0)  // (the holder moves: the step rewrites it)
+        sheet_slot[wall_sheet[p]] = static_cast<Index>(out - sum_entry.data());
+      put(wall_near[p], 2);
+    }
     for (Index q = near_offset[k]; q < near_offset[k + 1]; ++q) put(q, 0);
     for (Index p = near_rev_offset[k]; p < near_rev_offset[k + 1]; ++p) put(near_rev[p], 1);
     sum_entry[sum_offset[b]] |= 4u;  // a busy particle has at least one entry

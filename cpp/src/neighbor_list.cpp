@@ -317,6 +317,8 @@ void NeighborList::remove(const Context& c, const Id* gone, std::size_t count) {
   compact(c.contacts.walls.touch, wall_to_, walls_kept);
   const std::size_t subset_kept = drop_rows(wall_near_offset, row_to, pair_to, &wall_near, &wall_to_);
   remap(wall_near, pair_to, subset_kept, wall_to_);
+  compact(wall_sheet, pair_to, subset_kept);  // (a removed sphere's sheets are left unread)
+  for (Index& e : sheet_entry) e = wall_to_[e];
 
   measure_reach(c);
   index_entries(c);
@@ -363,7 +365,8 @@ std::size_t NeighborList::near_bytes() const {
                         near_entry, sum_entry);
 }
 std::size_t NeighborList::wall_bytes() const {
-  return capacity_bytes(wall_offset, wall_index, wall_element, wall_owner, wall_near_offset, wall_near);
+  return capacity_bytes(wall_offset, wall_index, wall_element, wall_owner, wall_near_offset, wall_near, wall_sheet,
+                        sheet_offset, sheet_entry, sheet_slot, sheet_room);
 }
 std::size_t NeighborList::scratch_bytes() const {
   return capacity_bytes(cell_start_, cell_of_, cell_key_, perm_, old_index_of_, active, scratch_,

@@ -332,6 +332,7 @@ void Simulation::prepare_run() {
   }
   check_wall_speeds();
   check_box();
+  if (law_->sticky && !lists_.wall_sheet.empty()) lists_.valid = false;  // (sheets: a law that lets go at 0)
   if (!lists_.valid) lists_.rebuild(list_context(), skin(), true);
   // (velocities may have been set since: the ghosts follow)
   domain_.update_ghosts(particles_.arrays(), particles_.size());
@@ -420,7 +421,7 @@ detail::World Simulation::world() {
 
 NeighborList::Context Simulation::list_context() {
   return {particles_, walls_, domain_, contacts_, law(), law_ != nullptr, pairs_, threads(),
-          static_cast<long>(particles_.size()) >= opt_.parallel_min};
+          static_cast<long>(particles_.size()) >= opt_.parallel_min, sheets_};
 }
 
 void Simulation::update_lists() {

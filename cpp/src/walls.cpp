@@ -126,6 +126,21 @@ void Walls::measure(const Vec3& x, double r, const Index* wall, const Index* ele
   }
 }
 
+bool Walls::measure_face(const Vec3& x, double r, Index wall, Index element, Index e, Plane* tangent,
+                         const std::uint8_t* touch, Clearance* clear) const {
+  const std::size_t w = std::size_t(wall);
+  const Mesh& mesh = meshes_[std::size_t(slot_[w])];
+  if (!mesh.over_face(x, element)) return false;
+  const MeshPoint m = mesh.nearest(x, element);
+  if (m.feature.kind != MeshFeature::kFace) return false;
+  Plane& T = tangent[e];
+  T = planes_[w];
+  T.point = m.point;
+  T.normal = m.normal;
+  if (clear) clear[e] = {x, touch[e] ? -1.0 : m.distance - r, false};
+  return true;
+}
+
 void Walls::mark(const Vec3& lo, const Vec3& hi) {
   const std::size_t nw = planes_.size();
   point_ref_.resize(nw);

@@ -235,6 +235,7 @@ class PairParams:
     def work_of_adhesion(self, arg0: typing.SupportsFloat | typing.SupportsIndex) -> None:
         ...
 class Simulation:
+    _mesh_sheets: bool
     adhesion: str
     allow_unstable_dt: bool
     history_rule: str
@@ -397,6 +398,9 @@ class Simulation:
     def wall(self, wall: typing.SupportsInt | typing.SupportsIndex) -> dict:
         ...
     def wall_loads(self) -> tuple[numpy.typing.NDArray[numpy.float64], numpy.typing.NDArray[numpy.float64]]:
+        ...
+    @property
+    def _mesh_sheet_count(self) -> int:
         ...
     @property
     def dt(self) -> float:

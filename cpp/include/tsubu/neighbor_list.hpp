@@ -40,6 +40,7 @@ class NeighborList {
     const PairTable& pairs;
     int threads;    // threads for the parallel loops
     bool parallel;  // whether to use them (a scene of options.parallel_min spheres or more)
+    bool sheets = true;  // whether flat sheets of mesh triangles may stand as one entry (wall_sheet)
   };
 
   // ---- the lists (read by the engine's views) ---------------------------------------------
@@ -77,7 +78,23 @@ class NeighborList {
   // (Walls::measure skips it while the sphere stays near there); reset by every rebuild and run
   // start (reset_clearance), kept through refreshes and removals (entries keep their element).
   std::vector<Walls::Clearance> wall_clear;
-  void reset_clearance() { wall_clear.assign(wall_tangent.size(), Walls::Clearance{}); }
+  void reset_clearance() {
+    wall_clear.assign(wall_tangent.size(), Walls::Clearance{});
+    for (std::size_t k = 3; k < sheet_room.size(); k += 4) sheet_room[k] = -1;
+  }
+  // Scenes with a mesh and no wall moving, under a law that is not sticky: the near triangles of
+  // one mesh that form a flat sheet around a sphere (Mesh::flat_sheet) stand in wall_near as one
+  // position, the entry of the triangle that holds the contact (or that the sphere lies over).
+  // The step measures that triangle alone while the sphere lies over its face, and the whole
+  // sheet, as separate entries would be, when it nears an edge; the contact then moves to the
+  // triangle that holds it (engine/mesh_contacts.hpp): the same bits as separate entries, one
+  // entry's work. wall_sheet[p]: position p's sheet, or -1 (empty: no sheets); sheet k's entries
+  // are sheet_entry[sheet_offset[k], sheet_offset[k + 1]), its slot in sum_entry sheet_slot[k]
+  // (-1: none). sheet_room[4 k, 4 k + 4): where the sphere stood when its holder's face was last
+  // measured, and the square of how far it may move from there with nothing to measure (the
+  // face's tangent plane stands as it is: Mesh::face_room); -1 to measure.
+  Array<Index> wall_sheet, sheet_offset, sheet_entry, sheet_slot;
+  Array<double> sheet_room;
 
   // ---- bookkeeping ------------------------------------------------------------------------
   // Bounds on the distance any particle moved since the last rebuild and since the last
@@ -94,6 +111,7 @@ class NeighborList {
   // far; or the lists are invalid, or `every_step` (a testing aid).
   bool needs_rebuild(const Walls& walls, bool every_step) const {
     if (!valid || every_step) return true;
+    if (!wall_sheet.empty() && walls.moving()) return true;  // (sheets hold for fixed walls only)
     if (2.0 * moved > skin) return true;
     return walls.moved_beyond(moved, skin);
   }
@@ -178,6 +196,8 @@ class NeighborList {
   // Builds the near list from the Verlet list; with `transfer`, carries the stashed state over
   // by (owner id, partner id); `reordered`: the particles were re-sorted since the stash.
   void refresh_near(const Context& c, bool transfer, bool reordered);
+  // Folds the near-wall positions of each sphere's flat sheets into one (wall_sheet).
+  void gather_sheets(const Context& c);
   // busy, loaded, the sum entries, max_entries and `active` from the lists' entries.
   void index_entries(const Context& c);
   // sum_entry and sum_offset from the near list, the reverse index and the near-wall list.
@@ -198,6 +218,7 @@ class NeighborList {
   Array<double> scratch_;
   Array<Index> scratch_int_;
   Array<std::uint8_t> wall_keep_;  // which near-wall entries a refresh keeps in wall_near
+  std::vector<Index> tris_;        // a sheet's triangles (gather_sheets)
 };
 
 // Calls visit(cell) for each existing cell among the 27 around `key` (itself included), in the

@@ -142,6 +142,14 @@ class Simulation : private detail::RunHooks {
   // A wall's velocity must be finite and at most kMaxWallSpeed (InvalidArgument); a wall that
   // rotates is checked when a run starts, where the spheres are (check_wall_speeds).
   void set_plane_motion(int wall, const Vec3& velocity, const Vec3& angular_velocity);
+  // Whether a sphere's near triangles of a flat sheet of a mesh stand as one near-wall entry
+  // (NeighborList::wall_sheet; the same bits either way: a testing aid). Default true.
+  bool mesh_sheets() const { return sheets_; }
+  void set_mesh_sheets(bool on) { sheets_ = on, lists_.valid = false; }
+  // How many flat sheets the near-wall list holds now.
+  std::size_t mesh_sheet_count() const {
+    return lists_.wall_sheet.empty() ? 0 : lists_.sheet_offset.size() - 1;
+  }
   // The speed of light [m/s]: no wall of a Newtonian scene moves faster, and far beyond it the
   // contacts' products overflow doubles (a wall sliding at 1e150 m/s lost its friction).
   static constexpr double kMaxWallSpeed = 299792458.0;
@@ -548,6 +556,7 @@ class Simulation : private detail::RunHooks {
     shown_.time.store(run_.time, std::memory_order_relaxed);
   }
   bool ran_ = false;
+  bool sheets_ = true;  // (mesh_sheets)
   // The changes the next run checks for overlaps (check_overlaps), made after the first run:
   // the spheres added or moved, by id, with their centres at the last check (3 each, NaN for a
   // sphere added since), whether an id is listed (by id; empty while none is), and the number

@@ -61,7 +61,8 @@ struct ContactView {
   const double *x, *v, *w, *r, *m, *inv_i;
   const int* mat;
   const Id* ids;
-  const Index *own, *par, *wown, *wall, *welement, *wnear, *wnear_offset, *owned;
+  const Index *own, *par, *wown, *wall, *welement, *wnear_offset, *owned;
+  Index* wnear;  // (a flat sheet's position follows its contact: MeshContacts)
   const double *cut2, *entry;  // (r_i + r_j)^2, the law's entry terms (ContactLaw::entry_terms)
   double limit;  // max_overlap
   double speed;  // the scene's characteristic impact speed (Simulation::characteristic_speed)
@@ -77,6 +78,12 @@ struct ContactView {
   const Walls* meshes;
   Wall* tangent;
   Walls::Clearance* clear;  // with meshes and no wall moving: Walls::measure's records; else null
+  // The flat sheets (NeighborList::wall_sheet): `of` null where there are none.
+  struct Sheets {
+    const Index *of, *offset, *entry, *slot;
+    std::uint32_t* sum_entry;
+    double* room;
+  } sheets;
   bool moving;  // a wall moves: wall contacts take its velocity
   const PairTable* table;
   const PairParams* same;  // the parameters of every pair when all spheres share a material
@@ -99,8 +106,8 @@ struct ContactView {
       : x(p.x.data()), v(p.v.data()), w(p.w.data()), r(p.radius.data()), m(p.mass.data()),
         inv_i(p.inv_inertia.data()), mat(p.material.data()), ids(p.id.data()),
         own(l.near_owner.data()), par(l.near_partner.data()), wown(l.wall_owner.data()),
-        wall(l.wall_index.data()), welement(l.wall_element.data()), wnear(l.wall_near.data()),
-        wnear_offset(l.wall_near_offset.data()), owned(l.near_offset.data()),
+        wall(l.wall_index.data()), welement(l.wall_element.data()),
+        wnear_offset(l.wall_near_offset.data()), owned(l.near_offset.data()), wnear(l.wall_near.data()),
         cut2(l.near_cut2.data()), entry(l.near_entry.data()), limit(s.options.max_overlap),
         speed(s.run.speed), xi(c.pairs.xi.data()), force(c.pairs.force.data()),
         nxft(c.pairs.nxft.data()), roll(c.pairs.roll.data()), overlap(c.pairs.overlap.data()),
@@ -111,6 +118,8 @@ struct ContactView {
         planes(s.walls.planes()), meshes(s.walls.has_meshes() ? &s.walls : nullptr),
         tangent(s.walls.has_meshes() ? l.wall_tangent.data() : nullptr),
         clear(s.walls.has_meshes() && !s.walls.moving() ? l.wall_clear.data() : nullptr),
+        sheets{l.wall_sheet.empty() ? nullptr : l.wall_sheet.data(), l.sheet_offset.data(),
+               l.sheet_entry.data(), l.sheet_slot.data(), l.sum_entry.data(), l.sheet_room.data()},
         moving(s.walls.moving()), table(&s.pairs),
         same(s.sphere_material >= 0 ? &s.pairs(s.sphere_material, s.sphere_material) : nullptr),
         step(std::uint64_t(s.run.step + ahead)), seed(s.options.seed), dt(dt_),

@@ -75,6 +75,24 @@ class Mesh {
   // Distance from x to triangle t (for the lists' gap: the sphere's radius is the caller's).
   double distance(const Vec3& x, Index t) const { return nearest_body(to_body(x), t).distance; }
 
+  // Flat patches (Walls::measure_patch): whether x lies over the inside of triangle t's face,
+  // each barycentric coordinate of its projection above kInside (a margin far beyond what
+  // rounding or a coplanar neighbour's tilt could move across an edge).
+  static constexpr double kInside = 1e-9;
+  bool over_face(const Vec3& x, Index t) const;
+  // How far a point may move from x and still lie over triangle t's face as over_face() asks:
+  // half the distance from x's projection to the nearest edge, where it lies well inside (each
+  // barycentric coordinate above 1e-6); else 0, and 0 for a mesh that has moved (its body frame
+  // is not the world's).
+  double face_room(const Vec3& x, Index t) const;
+  // Whether the triangles tris[0, n) are one flat sheet around x out to `reach`: all in one
+  // plane (normals within 1e-12 of each other, up to sign, and every corner within 1e-10 of the
+  // sheet's size of the first's plane) and every edge of theirs that comes within `reach` of x
+  // shared by exactly two of them. Then, while a sphere centre stays where only these
+  // triangles can reach it, its one contact with them is a face contact of the triangle it
+  // lies over, or sits on an edge or corner between them (docs/geometry.md, "Flat patches").
+  bool flat_sheet(const Vec3& x, double reach, const Index* tris, int n) const;
+
   // Calls visit(t) for each triangle t within r + reach of x, in increasing t.
   template <class Visit>
   void for_each_near(const Vec3& x, double r, double reach, Visit&& visit) const {

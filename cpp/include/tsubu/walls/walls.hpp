@@ -91,6 +91,17 @@ class Walls {
     if (kind_[w] == kPlane) return planes_[w].distance(x) - r;
     return meshes_[std::size_t(slot_[w])].distance(Vec3(x), element) - r;
   }
+  // Whether the gap is below `reach` (a mesh's far triangles are told by a cheap bound first).
+  template <class X>
+  bool within(const Eigen::MatrixBase<X>& x, double r, Index wall, Index element, double reach) const {
+    const std::size_t w = static_cast<std::size_t>(wall);
+    if (kind_[w] == kPlane) return planes_[w].distance(x) - r < reach;
+    const Mesh& mesh = meshes_[std::size_t(slot_[w])];
+    Vec3 normal;
+    double lower;
+    if (mesh.clear_of(Vec3(x), r + reach, element, normal, lower)) return false;
+    return mesh.distance(Vec3(x), element) - r < reach;
+  }
   // The overlap of a sphere of radius r at x with a wall element.
   template <class X>
   double overlap(const Eigen::MatrixBase<X>& x, double r, Index wall, Index element) const {
@@ -119,6 +130,12 @@ class Walls {
   };
   void measure(const Vec3& x, double r, const Index* wall, const Index* element, const Index* entries,
                int n, Plane* tangent, const std::uint8_t* touch = nullptr, Clearance* clear = nullptr) const;
+  // A flat sheet's holder entry e (triangle `element` of mesh `wall`; NeighborList::wall_sheet):
+  // where the sphere lies over the inside of that triangle's face, its tangent plane and record
+  // as measure() would leave them (the sheet's other triangles are then clear of the sphere or
+  // hidden by this face) and true; false elsewhere, measuring nothing.
+  bool measure_face(const Vec3& x, double r, Index wall, Index element, Index e, Plane* tangent,
+                    const std::uint8_t* touch, Clearance* clear) const;
 
   // Takes the walls' positions now as the reference of the rebuild criterion, for particles
   // inside the box [lo, hi].
