@@ -92,6 +92,15 @@ void Mesh::prepare() {
     tris_[k] = cell_tri[k].second;
   }
   start_.push_back(static_cast<Index>(cell_tri.size()));
+  // Where the box's cells are not many more than the occupied ones, every cell's start, so that
+  // a query reads its cells directly, without a binary search per row of cells.
+  const double cells = double(dims_[0]) * double(dims_[1]) * double(dims_[2]);
+  dense_.clear();
+  if (cells <= 64.0 * double(keys_.size()) + 4096.0) {
+    dense_.assign(std::size_t(cells) + 1, 0);
+    for (std::size_t k = 0; k < keys_.size(); ++k) dense_[keys_[k] + 1] = start_[k + 1] - start_[k];
+    for (std::size_t c = 0; c + 1 < dense_.size(); ++c) dense_[c + 1] += dense_[c];
+  }
 }
 
 std::vector<Index>& Mesh::scratch() {
@@ -113,6 +122,11 @@ void Mesh::candidates(const Vec3& X, double ext, std::vector<Index>& out) const 
     for (long y = c0[1]; y <= c1[1]; ++y) {
       const std::uint64_t row = (std::uint64_t(z) * std::uint64_t(dims_[1]) + std::uint64_t(y)) *
                                 std::uint64_t(dims_[0]);
+      if (!dense_.empty()) {
+        out.insert(out.end(), tris_.begin() + dense_[row + std::uint64_t(c0[0])],
+                   tris_.begin() + dense_[row + std::uint64_t(c1[0]) + 1]);
+        continue;
+      }
       auto it = std::lower_bound(keys_.begin(), keys_.end(), row + std::uint64_t(c0[0]));
       for (; it != keys_.end() && *it <= row + std::uint64_t(c1[0]); ++it) {
         const std::size_t k = std::size_t(it - keys_.begin());
@@ -318,7 +332,8 @@ std::size_t Mesh::bytes() const {
   return body_.capacity() * sizeof(Vec3) + faces_.capacity() * sizeof(Face) +
          tri_.capacity() * sizeof(Tri) +
          canon_.capacity() * sizeof(Index) +
-         keys_.capacity() * sizeof(std::uint64_t) + (start_.capacity() + tris_.capacity()) * sizeof(Index);
+         keys_.capacity() * sizeof(std::uint64_t) +
+         (start_.capacity() + tris_.capacity() + dense_.capacity()) * sizeof(Index);
 }
 
 void Mesh::save(archive::Writer& w) const {

@@ -153,6 +153,7 @@ class Mesh {
   std::array<long, 3> dims_{1, 1, 1};
   std::vector<std::uint64_t> keys_;
   std::vector<Index> start_, tris_;
+  std::vector<Index> dense_;  // every cell's first in tris_ (cells + 1), or empty: a sparse box
 };
 
 }  // namespace tsubu
