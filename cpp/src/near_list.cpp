@@ -204,61 +204,90 @@ void NeighborList::gather_sheets(const Context& c) {
   wall_sheet.clear();
   sheet_offset.assign(1, 0);
   sheet_entry.clear();
+  sheet_slot.clear();
+  sheet_room.clear();
   if (!c.sheets || !c.walls.has_meshes() || c.walls.moving() || c.law.sticky) return;
   const std::size_t n = c.particles.size();
+  const long ni = static_cast<long>(n);
   const double* x = c.particles.arrays().x.data();
   const double* r = c.particles.arrays().radius.data();
   const std::uint8_t* touch = c.contacts.walls.touch.data();
   const double reach = near_skin();
-  std::vector<Index>& tris = tris_;
-  // In place: each sphere's positions move down over the ones its sheets folded.
-  fit(wall_sheet, wall_near.size());
-  Index out = 0, from = 0;
-  for (std::size_t i = 0; i < n; ++i) {
-    const Index end = wall_near_offset[i + 1];
-    for (Index p = from; p < end;) {
-      const Index w = wall_index[wall_near[p]];
-      Index q = p + 1;
-      while (q < end && wall_index[wall_near[q]] == w) ++q;
-      Index holder = -1;
-      int touched = 0;
-      if (q - p >= 2 && c.walls.kind(int(w)) == Walls::kMesh) {
-        tris.clear();
-        for (Index a = p; a < q; ++a) {
-          tris.push_back(wall_element[wall_near[a]]);
-          if (touch[wall_near[a]]) ++touched, holder = wall_near[a];
+  // 1. Each sphere's positions of one wall: a sheet (sheet_mark_: its holder at the first, -2
+  //    at the others) or as they are (-1); each sphere's positions, sheets and sheet entries.
+  fit(sheet_mark_, wall_near.size());
+  Array<Index>& positions = sheet_rows_[0];
+  Array<Index>& sheets = sheet_rows_[1];
+  Array<Index>& entries = sheet_rows_[2];
+  for (Array<Index>& a : sheet_rows_) fit(a, n + 1), a[0] = 0;
+#pragma omp parallel num_threads(c.threads) if (c.parallel)
+  {
+    std::vector<Index> tris;
+#pragma omp for schedule(static)
+    for (long i = 0; i < ni; ++i) {
+      Index kept = 0, made = 0, held = 0;
+      const Index end = wall_near_offset[i + 1];
+      for (Index p = wall_near_offset[i]; p < end;) {
+        const Index w = wall_index[wall_near[p]];
+        Index q = p + 1;
+        while (q < end && wall_index[wall_near[q]] == w) ++q;
+        Index holder = -1;
+        bool sheet = false;
+        if (q - p >= 2 && c.walls.kind(int(w)) == Walls::kMesh) {
+          int touched = 0;
+          tris.clear();
+          for (Index a = p; a < q; ++a) {
+            tris.push_back(wall_element[wall_near[a]]);
+            if (touch[wall_near[a]]) ++touched, holder = wall_near[a];
+          }
+          const Mesh& mesh = c.walls.mesh(int(w));
+          sheet = touched <= 1 && mesh.flat_sheet(vec3(x, i), r[i] + reach, tris.data(), int(tris.size()));
+          if (sheet && holder < 0) {  // the triangle the sphere lies over, if any
+            holder = wall_near[p];
+            for (Index a = p; a < q; ++a)
+              if (mesh.over_face(vec3(x, i), wall_element[wall_near[a]])) {
+                holder = wall_near[a];
+                break;
+              }
+          }
         }
-        const Mesh& mesh = c.walls.mesh(int(w));
-        if (touched > 1 || !mesh.flat_sheet(vec3(x, i), r[i] + reach, tris.data(), int(tris.size()))) {
-          touched = -1;
-        } else if (holder < 0) {  // the triangle the sphere lies over, if any
-          holder = wall_near[p];
-          for (Index a = p; a < q; ++a)
-            if (mesh.over_face(vec3(x, i), wall_element[wall_near[a]])) {
-              holder = wall_near[a];
-              break;
-            }
-        }
-      } else {
-        touched = -1;
+        for (Index a = p; a < q; ++a) sheet_mark_[a] = sheet ? (a == p ? holder : -2) : -1;
+        kept += sheet ? 1 : q - p;
+        made += sheet ? 1 : 0;
+        held += sheet ? q - p : 0;
+        p = q;
       }
-      if (touched < 0) {  // not a sheet: its positions as they are
-        for (Index a = p; a < q; ++a) wall_sheet[out] = -1, wall_near[out++] = wall_near[a];
-      } else {
-        sheet_entry.insert(sheet_entry.end(), wall_near.begin() + p, wall_near.begin() + q);
-        wall_sheet[out] = static_cast<Index>(sheet_offset.size()) - 1;
-        sheet_offset.push_back(static_cast<Index>(sheet_entry.size()));
-        wall_near[out++] = holder;
-      }
-      p = q;
+      positions[i + 1] = kept, sheets[i + 1] = made, entries[i + 1] = held;
     }
-    from = end;
-    wall_near_offset[i + 1] = out;
   }
-  wall_near.resize(static_cast<std::size_t>(out));
-  wall_sheet.resize(static_cast<std::size_t>(out));
-  if (sheet_offset.size() == 1) wall_sheet.clear();  // (no sheet: the step takes the plain path)
-  sheet_slot.assign(sheet_offset.size() - 1, -1);
+  for (Array<Index>& a : sheet_rows_) running_sums(a.data(), ni, scan_threads(c));
+  if (sheets[n] == 0) return;  // (no sheet: the step takes the plain path)
+  // 2. The positions without the folded ones, and the sheets, each sphere's where the counts
+  //    put them.
+  fit(wall_near_next_, static_cast<std::size_t>(positions[n]));
+  fit(wall_sheet, static_cast<std::size_t>(positions[n]));
+  fit(sheet_offset, static_cast<std::size_t>(sheets[n]) + 1);
+  fit(sheet_entry, static_cast<std::size_t>(entries[n]));
+#pragma omp parallel for schedule(static) num_threads(c.threads) if (c.parallel)
+  for (long i = 0; i < ni; ++i) {
+    Index o = positions[i], k = sheets[i], e = entries[i];
+    const Index end = wall_near_offset[i + 1];
+    for (Index p = wall_near_offset[i]; p < end; ++p) {
+      if (sheet_mark_[p] == -2) continue;
+      if (sheet_mark_[p] == -1) {
+        wall_near_next_[o] = wall_near[p], wall_sheet[o++] = -1;
+        continue;
+      }
+      wall_near_next_[o] = sheet_mark_[p], wall_sheet[o++] = k;
+      Index q = p;
+      do sheet_entry[e++] = wall_near[q++];
+      while (q < end && sheet_mark_[q] == -2);
+      sheet_offset[++k] = e;
+    }
+  }
+  wall_near.swap(wall_near_next_);
+  std::copy(positions.begin(), positions.begin() + ni + 1, wall_near_offset.begin());
+  sheet_slot.assign(static_cast<std::size_t>(sheets[n]), -1);
   sheet_room.assign(4 * sheet_slot.size(), -1.0);
 }
 

@@ -218,7 +218,10 @@ class NeighborList {
   Array<double> scratch_;
   Array<Index> scratch_int_;
   Array<std::uint8_t> wall_keep_;  // which near-wall entries a refresh keeps in wall_near
-  std::vector<Index> tris_;        // a sheet's triangles (gather_sheets)
+  // gather_sheets: each position's mark, each sphere's positions, sheets and sheet entries
+  // (running sums), and the positions kept.
+  Array<Index> sheet_mark_, wall_near_next_;
+  std::array<Array<Index>, 3> sheet_rows_;
 };
 
 // Calls visit(cell) for each existing cell among the 27 around `key` (itself included), in the
