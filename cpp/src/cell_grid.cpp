@@ -7,17 +7,46 @@
 #include <string>
 #include <vector>
 
+#include "list_loops.hpp"
 #include "tsubu/neighbor_list.hpp"
 
 namespace tsubu {
+
+namespace {
+// The particles' bounding box (Domain::grid_extent) and largest radius, in parts on the threads
+// from list_loops::kScanRows particles (minima and maxima: the same for any split).
+double extent(const NeighborList::Context& c, Vec3& lo, Vec3& hi) {
+  const long n = static_cast<long>(c.particles.size());
+  const ParticleStore& p = c.particles.arrays();
+  const int threads = list_loops::scan_threads(c);
+  if (threads <= 1 || n < list_loops::kScanRows) {
+    c.domain.grid_extent(p.x.data(), n, lo, hi);
+    return *std::max_element(p.radius.begin(), p.radius.begin() + n);
+  }
+  const double inf = std::numeric_limits<double>::infinity();
+  std::vector<Vec3> part_lo(threads, Vec3::Constant(inf)), part_hi(threads, Vec3::Constant(-inf));
+  std::vector<double> part_r(threads, -inf);
+#pragma omp parallel num_threads(threads)
+  {
+    const auto [t, nt] = list_loops::part();
+    const long k0 = n * t / nt, k1 = n * (t + 1) / nt;
+    Vec3 my_lo, my_hi;  // (locals: the parts' entries share cache lines)
+    c.domain.grid_extent(p.x.data() + 3 * k0, k1 - k0, my_lo, my_hi);
+    part_lo[t] = my_lo, part_hi[t] = my_hi;
+    if (k1 > k0) part_r[t] = *std::max_element(p.radius.begin() + k0, p.radius.begin() + k1);
+  }
+  lo = part_lo[0], hi = part_hi[0];
+  for (int t = 1; t < threads; ++t) lo = lo.cwiseMin(part_lo[t]), hi = hi.cwiseMax(part_hi[t]);
+  return *std::max_element(part_r.begin(), part_r.end());
+}
+}  // namespace
 
 NeighborList::CellGrid NeighborList::plan_grid(const Context& c, double skin) const {
   CellGrid g;
   const std::size_t n = c.particles.size();
   if (n == 0) return g;
   const ParticleStore& p = c.particles.arrays();
-  c.domain.grid_extent(p.x.data(), n, g.lo, g.hi);
-  const double rmax = *std::max_element(p.radius.begin(), p.radius.begin() + n);
+  const double rmax = extent(c, g.lo, g.hi);
   g.h = 2.0 * rmax + skin;  // cells no smaller than the largest cutoff
   // A periodic box: the box and its ghosts' layer (NeighborList::ghost_margin), on a dense grid.
   const double margin = c.domain.periodic() ? ghost_margin(g.h, skin) + c.domain.excursion(p.x.data(), n) : 0.0;
@@ -64,6 +93,50 @@ NeighborList::CellKey NeighborList::cell_of(const CellGrid& g, const double* x) 
   return key;
 }
 
+namespace {
+// The dense grid's counting sort on `threads` threads, with the serial sort's result: cells
+// counted and particles placed with atomic increments, then each cell's particles put back in
+// index order (already so in a cell whose particles one thread placed). cell(k) is particle
+// k's cell; `fill` is scratch.
+template <class Cell>
+void bin_dense_parallel(Cell&& cell, long ncell, int threads, Array<Index>& cell_of, Array<Index>& cell_start,
+                        Array<Index>& perm, Array<Index>& fill) {
+  const long n = static_cast<long>(cell_of.size());
+  cell_start.resize(ncell + 1);
+  fill.resize(ncell);
+  Index* start = cell_start.data();
+#pragma omp parallel num_threads(threads)
+  {
+#pragma omp for schedule(static) nowait
+    for (long k = 0; k < n; ++k) cell_of[k] = cell(k);
+#pragma omp for schedule(static)
+    for (long q = 0; q <= ncell; ++q) start[q] = 0;
+#pragma omp for schedule(static)
+    for (long k = 0; k < n; ++k) {
+#pragma omp atomic
+      ++start[cell_of[k] + 1];
+    }
+  }
+  list_loops::running_sums(start, ncell, threads);
+#pragma omp parallel num_threads(threads)
+  {
+#pragma omp for schedule(static)
+    for (long q = 0; q < ncell; ++q) fill[q] = start[q];
+#pragma omp for schedule(static)
+    for (long k = 0; k < n; ++k) {
+      Index s;
+#pragma omp atomic capture
+      s = fill[cell_of[k]]++;
+      perm[s] = static_cast<Index>(k);
+    }
+#pragma omp for schedule(static)
+    for (long q = 0; q < ncell; ++q)
+      if (start[q + 1] - start[q] > 1)
+        list_loops::insertion_sort(perm.data() + start[q], perm.data() + start[q + 1], [](Index k) { return k; });
+  }
+}
+}  // namespace
+
 void NeighborList::bin_by_cell(const Context& ctx, const CellGrid& g) {
   const std::size_t n = ctx.particles.size();
   const double* x = ctx.particles.arrays().x.data();
@@ -71,12 +144,18 @@ void NeighborList::bin_by_cell(const Context& ctx, const CellGrid& g) {
   perm_.resize(n);
   if (!g.sparse) {  // counting sort over every cell of the box
     const long ncell = g.dims[0] * g.dims[1] * g.dims[2];
-    for (std::size_t k = 0; k < n; ++k) {
+    auto cell = [&](std::size_t k) {
       long c[3];
       for (int d = 0; d < 3; ++d)
         c[d] = std::clamp(static_cast<long>((x[3 * k + d] - g.lo[d]) / g.h), 0L, g.dims[d] - 1);
-      cell_of_[k] = static_cast<Index>(g.index(c));
+      return static_cast<Index>(g.index(c));
+    };
+    const int threads = ctx.parallel ? ctx.threads : 1;
+    if (threads > 1 && static_cast<long>(n) >= list_loops::kScanRows) {
+      bin_dense_parallel(cell, ncell, threads, cell_of_, cell_start_, perm_, scratch_int_);
+      return;
     }
+    for (std::size_t k = 0; k < n; ++k) cell_of_[k] = cell(k);
     cell_start_.assign(ncell + 1, 0);
     for (std::size_t k = 0; k < n; ++k) ++cell_start_[cell_of_[k] + 1];
     for (long c = 0; c < ncell; ++c) cell_start_[c + 1] += cell_start_[c];

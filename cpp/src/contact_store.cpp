@@ -2,6 +2,8 @@
 
 #include <algorithm>
 
+#include "list_loops.hpp"
+
 namespace tsubu {
 
 void ContactStore::shape_for(const CompiledLaw& law) {
@@ -10,12 +12,12 @@ void ContactStore::shape_for(const CompiledLaw& law) {
   wall_shape = {law.history_width, moment, law.rolling ? 3 : 0, law.rough_width};
 }
 
-void ContactStore::size(std::size_t pair_entries, std::size_t wall_entries) {
-  auto size = [](EntryStore& st, const EntryShape& shape, std::size_t entries) {
+void ContactStore::size(std::size_t pair_entries, std::size_t wall_entries, int threads) {
+  auto size = [threads](EntryStore& st, const EntryShape& shape, std::size_t entries) {
     const auto width = EntryStore::widths(shape);
     const auto arrays = st.carried();
-    for (std::size_t k = 0; k < kFields; ++k) fit(*arrays[k], width[k] * entries);
-    fit(st.touch, entries);
+    for (std::size_t k = 0; k < kFields; ++k) fit_touched(*arrays[k], width[k] * entries, threads);
+    fit_touched(st.touch, entries, threads);
   };
   size(pairs, pair_shape, pair_entries);
   size(walls, wall_shape, wall_entries);
@@ -66,7 +68,7 @@ void ContactStore::stash_pair_state(const Array<Index>& offset, const Array<Inde
     for (Index q = offset[i]; q < offset[i + 1]; ++q) count += touching(law, overlap[q]) ? 1 : 0;
     stash_offset[i + 1] = count;
   }
-  for (long i = 0; i < rows; ++i) stash_offset[i + 1] += stash_offset[i];
+  list_loops::running_sums(stash_offset.data(), rows, threads);
   size_for(static_cast<std::size_t>(stash_offset[rows]));
 #pragma omp parallel for schedule(static) num_threads(threads)
   for (long i = 0; i < rows; ++i) copy_row(i, static_cast<std::size_t>(stash_offset[i]));

@@ -62,6 +62,13 @@ void* map_large(std::size_t bytes) {
 void unmap_large(void* p, std::size_t) { std::free(p); }
 #endif
 
+void touch_pages(void* p, std::size_t bytes, int threads) {
+  auto* const first = static_cast<unsigned char*>(p);
+  const long pages = static_cast<long>((bytes + kPage - 1) / kPage);
+#pragma omp parallel for schedule(static) num_threads(threads) if (threads > 1)
+  for (long k = 0; k < pages; ++k) first[k * static_cast<long>(kPage)] = 0;
+}
+
 }  // namespace tsubu::detail
 
 namespace tsubu {

@@ -38,9 +38,9 @@ void NeighborList::refresh_near(const Context& c, bool transfer, bool reordered)
   }
   running_sums(near_offset.data(), ni, scan_threads(c));
   const std::size_t m = static_cast<std::size_t>(near_offset[n]);
-  fit(near_owner, m);
-  fit(near_partner, m);
-  fit(near_cut2, m);
+  fit_touched(near_owner, m, scan_threads(c));
+  fit_touched(near_partner, m, scan_threads(c));
+  fit_touched(near_cut2, m, scan_threads(c));
   // (How far a partner lies down or up the array from its owner: the reverse index's reach.)
   Index below = 0, above = 0;
 #pragma omp parallel for schedule(static) num_threads(c.threads) if (c.parallel) reduction(max : below, above)
@@ -60,7 +60,7 @@ void NeighborList::refresh_near(const Context& c, bool transfer, bool reordered)
   reach_above = above;
 
   // 2. Contact state, carried over by (owner id, partner id): rows are sorted by partner id.
-  cs.size(near_partner.size(), wall_index.size());
+  cs.size(near_partner.size(), wall_index.size(), scan_threads(c));
   for (Array<double>* a : cs.pairs.carried()) zero(*a, c);
   const std::size_t old_n = cs.stash_offset.size() == 0 ? 0 : cs.stash_offset.size() - 1;
   if (transfer && old_n > 0) {
@@ -109,8 +109,9 @@ void NeighborList::refresh_near(const Context& c, bool transfer, bool reordered)
 
   // 3. Reverse index: for each particle, the entries where it is the partner, by owner id.
   //    (A ghost partner's entries are its source's.)
-  near_rev_offset.assign(n + 1, 0);
-  fit(near_rev, m);
+  near_rev_offset.resize(n + 1);
+  near_rev_offset[0] = 0;
+  fit_touched(near_rev, m, scan_threads(c));
   Array<Index>& fill = scratch_int_;
   if (scan_threads(c) > 1 && c.domain.ghosts() == 0 && ni >= kScanRows) {
     // Each thread takes the rows of a range of partners [j0, j1), reading only the entries of
@@ -129,6 +130,7 @@ void NeighborList::refresh_near(const Context& c, bool transfer, bool reordered)
 #pragma omp parallel num_threads(c.threads)
     {
       const Rows me = rows();
+      std::fill(near_rev_offset.data() + me.j0 + 1, near_rev_offset.data() + me.j1 + 1, 0);  // its rows
       for (Index q = me.q0; q < me.q1; ++q) {
         const Index j = near_partner[q];
         if (j >= me.j0 && j < me.j1) ++near_rev_offset[j + 1];
@@ -145,6 +147,7 @@ void NeighborList::refresh_near(const Context& c, bool transfer, bool reordered)
       }
     }
   } else {
+    std::fill(near_rev_offset.begin() + 1, near_rev_offset.end(), 0);
     for (std::size_t q = 0; q < m; ++q) ++near_rev_offset[c.domain.source(near_partner[q], n) + 1];
     running_sums(near_rev_offset.data(), ni, scan_threads(c));
     fill.assign(near_rev_offset.begin(), near_rev_offset.end() - 1);

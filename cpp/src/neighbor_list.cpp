@@ -43,7 +43,9 @@ void NeighborList::rebuild(const Context& c, double skin_now, bool keep_history,
     cs.stash_wall_index.swap(wall_index);
     cs.stash_wall_element.swap(wall_element);
     old_index_of_.resize(c.particles.id_bound());
-    for (std::size_t id = 0; id < old_index_of_.size(); ++id) old_index_of_[id] = c.particles.index(Id(id));
+    const long ids = static_cast<long>(old_index_of_.size());
+#pragma omp parallel for schedule(static) num_threads(c.threads) if (c.parallel)
+    for (long id = 0; id < ids; ++id) old_index_of_[id] = c.particles.index(Id(id));
     const auto now = cs.walls.carried();
     for (std::size_t k = 0; k < ContactStore::kFields; ++k) cs.stash_walls[k].swap(*now[k]);
   }
@@ -95,7 +97,8 @@ void NeighborList::build_verlet(const Context& c, const CellGrid& grid, double s
   // Count, prefix sum, fill, sort.
   const std::size_t n = c.particles.size();
   const ParticleStore& ps = c.particles.arrays();
-  pair_offset.assign(n + 1, 0);
+  pair_offset.resize(n + 1);  // (rows 1..n counted below)
+  pair_offset[0] = 0;
   const double* x = ps.x.data();
   const double* r = ps.radius.data();
   const Id* id = ps.id.data();
@@ -178,7 +181,8 @@ void NeighborList::build_walls(const Context& c, double skin_now, bool transfer,
   const double* x = ps.x.data();
   const double* r = ps.radius.data();
   const long ni = static_cast<long>(n);
-  wall_offset.assign(n + 1, 0);
+  wall_offset.resize(n + 1);  // (rows 1..n counted below)
+  wall_offset[0] = 0;
 #pragma omp parallel for schedule(static) num_threads(c.threads) if (c.parallel)
   for (long i = 0; i < ni; ++i) {
     Index count = 0;
@@ -199,7 +203,7 @@ void NeighborList::build_walls(const Context& c, double skin_now, bool transfer,
     });
   }
   ContactStore& cs = c.contacts;
-  cs.size(near_partner.size(), wall_index.size());
+  cs.size(near_partner.size(), wall_index.size(), scan_threads(c));
   if (c.walls.has_meshes()) wall_tangent.resize(wall_index.size());
   else wall_tangent.clear();
   reset_clearance();

@@ -31,8 +31,9 @@ class ContactStore {
 
   // The shapes the law needs (arrays it does not use stay empty).
   void shape_for(const CompiledLaw& law);
-  // Sizes every array for the lists' entry counts (capacity grows by 1/8, not doubled).
-  void size(std::size_t pair_entries, std::size_t wall_entries);
+  // Sizes every array for the lists' entry counts (capacity grows by 1/8, not doubled; new
+  // pages first touched on `threads` threads, fit_touched).
+  void size(std::size_t pair_entries, std::size_t wall_entries, int threads = 1);
 
   // The stash: touching pair entries, compactly, rows by owner in `stash_offset` (the owner's
   // old index), partners as ids; the wall entries whole, with their (wall, element) keys.
@@ -57,6 +58,21 @@ template <class T>
 void fit(Array<T>& a, std::size_t size, T value = T()) {
   if (size > a.capacity()) a.reserve(size + size / 8);
   a.resize(size, value);
+}
+
+// fit() for an array the threads then fill in parts: when it must grow, its new pages are first
+// touched on `threads` threads before the old values are copied over (else every page fault of
+// the new mapping, the kernel zeroing the page, falls on the one thread that copies).
+template <class T>
+void fit_touched(Array<T>& a, std::size_t size, int threads) {
+  if (size > a.capacity() && threads > 1 && size * sizeof(T) >= detail::kLargePage) {
+    Array<T> fresh;
+    fresh.reserve(size + size / 8);
+    detail::touch_pages(fresh.data(), fresh.capacity() * sizeof(T), threads);
+    fresh.assign(a.begin(), a.end());
+    a.swap(fresh);
+  }
+  fit(a, size);
 }
 
 }  // namespace tsubu

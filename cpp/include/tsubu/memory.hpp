@@ -18,6 +18,9 @@ constexpr std::size_t kTail = 32;
 // `bytes` (>= kLargePage) less than 4 KiB past a kLargePage boundary; throws std::bad_alloc.
 void* map_large(std::size_t bytes);
 void unmap_large(void* p, std::size_t bytes);
+// Writes a zero byte into each 4 KiB page of [p, p + bytes) on `threads` threads, so that the
+// page faults of a fresh mapping (where the kernel zeroes each page) are shared between them.
+void touch_pages(void* p, std::size_t bytes, int threads);
 }  // namespace detail
 
 // Bytes the process can still allocate without swapping or being killed: the kernel's
