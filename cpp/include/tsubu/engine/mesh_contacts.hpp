@@ -77,8 +77,8 @@ struct MeshContacts {
       const Index* entries = c.sheets.entry + c.sheets.offset[k];
       const int n = int(c.sheets.offset[k + 1] - c.sheets.offset[k]);
       measure_entries(c, x, r, entries, n);
-      // Of a flat sheet at most one entry is touched or pressed (one face, or the edge or
-      // corner a face hides not); it holds the contact, else the triangle under the sphere.
+      // Of a flat sheet at most one entry is touched or pressed (one face, or an edge or corner
+      // that no face hides); it holds the contact, else the triangle under the sphere does.
       const Mesh& mesh = c.meshes->mesh(c.wall[e]);
       Index holder = -1;
       for (int b = 0; b < n && holder < 0; ++b)
