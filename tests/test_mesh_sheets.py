@@ -202,3 +202,27 @@ def test_a_sticky_law_has_no_sheets():
     sim.run(steps=2000)
     assert (sim.contacts()["wall"] >= 0).sum() == 1  # (it sticks to the floor)
     assert sim._core._mesh_sheet_count == 0
+
+
+def test_a_mesh_that_overlaps_itself_in_one_plane_makes_no_sheet():
+    """Two copies of a fine floor in one mesh, the second shifted by half a triangle in the
+    plane: every edge near a sphere is shared by two triangles of its own copy, but the copies
+    overlap, and separate entries give a contact per copy. So no sheet forms, and the bits are
+    those of separate entries: each sphere resting on the floor presses it twice."""
+    def run(sheets):
+        v, f = mesh.square((0.0, 0.0, 0.0), 6e-3, (0.0, 0.0, 1.0), 30)
+        shifted = v + [0.1e-3, 0.07e-3, 0.0]
+        v2, f2 = np.vstack([v, shifted]), np.vstack([f, f + len(v)])
+        sim = tsubu.Simulation(dt=DT, threads=1, parallel_min=0)
+        sim._core._mesh_sheets = sheets
+        mat = material(friction=0.3)
+        sim.add_mesh(v2, f2, material=mat)
+        sim.add_spheres([[x, y, R + 0.02e-3] for x in (-1.5e-3, 0.3e-3, 1.6e-3) for y in (-1e-3, 1.1e-3)], R, mat)
+        sim.run(steps=3000)
+        return sim
+
+    a, b = run(True), run(False)
+    assert a._core._mesh_sheet_count == 0
+    assert_same_bits(a, b)
+    c = a.contacts()
+    assert ((c["wall"] >= 0).sum()) == 2 * len(a)  # (a contact per copy)

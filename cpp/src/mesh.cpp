@@ -265,6 +265,30 @@ bool Mesh::flat_sheet(const Vec3& x, double reach, const Index* tris, int n) con
       if (holders != 2) return false;
     }
   }
+  // No two of them overlapping (an offset second copy of a floor in the same mesh: separate
+  // entries would give a contact per copy): in the plane, an edge's outward normal separates
+  // any two triangles that only meet at an edge or corner.
+  auto separated = [&](const Tri& s, const Tri& t) {
+    const Vec3* sc[3] = {&s.a, &s.b, &s.c};
+    const Vec3* tc[3] = {&t.a, &t.b, &t.c};
+    for (const Tri* own : {&s, &t}) {
+      const Vec3* oc[3] = {&own->a, &own->b, &own->c};
+      for (int j = 0; j < 3; ++j) {
+        const Vec3 axis = first.n.cross(*oc[(j + 1) % 3] - *oc[j]);
+        double s_lo = axis.dot(*sc[0]), s_hi = s_lo, t_lo = axis.dot(*tc[0]), t_hi = t_lo;
+        for (int k = 1; k < 3; ++k) {
+          s_lo = std::min(s_lo, axis.dot(*sc[k])), s_hi = std::max(s_hi, axis.dot(*sc[k]));
+          t_lo = std::min(t_lo, axis.dot(*tc[k])), t_hi = std::max(t_hi, axis.dot(*tc[k]));
+        }
+        const double slack = 1e-9 * axis.norm() * size;
+        if (s_hi <= t_lo + slack || t_hi <= s_lo + slack) return true;
+      }
+    }
+    return false;
+  };
+  for (int k = 0; k < n; ++k)
+    for (int m = k + 1; m < n; ++m)
+      if (!separated(tri_[std::size_t(tris[k])], tri_[std::size_t(tris[m])])) return false;
   return true;
 }
 

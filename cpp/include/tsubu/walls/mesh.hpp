@@ -87,8 +87,8 @@ class Mesh {
   double face_room(const Vec3& x, Index t) const;
   // Whether the triangles tris[0, n) are one flat sheet around x out to `reach`: all in one
   // plane (normals within 1e-12 of each other, up to sign, and every corner within 1e-10 of the
-  // sheet's size of the first's plane) and every edge of theirs that comes within `reach` of x
-  // shared by exactly two of them. Then, while a sphere centre stays where only these
+  // sheet's size of the first's plane), every edge of theirs that comes within `reach` of x
+  // shared by exactly two of them, and no two overlapping. Then, while a sphere centre stays where only these
   // triangles can reach it, its one contact with them is a face contact of the triangle it
   // lies over, or sits on an edge or corner between them (docs/geometry.md, "Flat patches").
   bool flat_sheet(const Vec3& x, double reach, const Index* tris, int n) const;
