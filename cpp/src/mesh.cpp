@@ -198,28 +198,33 @@ bool Mesh::clear_of(const Vec3& x, double r, Index t, Vec3& normal, double& lowe
   return clear;
 }
 
-bool Mesh::over_face(const Vec3& x, Index t) const {
+Mesh::Weights Mesh::weights(const Vec3& X, Index t) const {
   const Tri& T = tri_[std::size_t(t)];
-  const Vec3 ab = T.b - T.a, ac = T.c - T.a, ap = to_body(x) - T.a;
-  const double d00 = ab.dot(ab), d01 = ab.dot(ac), d11 = ac.dot(ac), d20 = ap.dot(ab), d21 = ap.dot(ac);
-  const double whole = d00 * d11 - d01 * d01;  // the barycentric coordinates times this
-  const double v = d11 * d20 - d01 * d21, w = d00 * d21 - d01 * d20, u = whole - v - w;
-  const double margin = kInside * whole;
-  return v > margin && w > margin && u > margin;
+  const Vec3 ab = T.b - T.a, ac = T.c - T.a, ap = X - T.a;
+  Weights k;
+  k.ab2 = ab.dot(ab), k.ac2 = ac.dot(ac);
+  const double d01 = ab.dot(ac), d20 = ap.dot(ab), d21 = ap.dot(ac);
+  k.whole = k.ab2 * k.ac2 - d01 * d01;
+  k.v = k.ac2 * d20 - d01 * d21, k.w = k.ab2 * d21 - d01 * d20, k.u = k.whole - k.v - k.w;
+  return k;
+}
+
+bool Mesh::over_face(const Vec3& x, Index t) const {
+  const Weights k = weights(to_body(x), t);
+  const double margin = kInside * k.whole;
+  return k.v > margin && k.w > margin && k.u > margin;
 }
 
 double Mesh::face_room(const Vec3& x, Index t) const {
   if (moved_) return 0;
-  const Tri& T = tri_[std::size_t(t)];
-  const Vec3 ab = T.b - T.a, ac = T.c - T.a, ap = x - T.a;
-  const double d00 = ab.dot(ab), d01 = ab.dot(ac), d11 = ac.dot(ac), d20 = ap.dot(ab), d21 = ap.dot(ac);
-  const double whole = d00 * d11 - d01 * d01;
-  const double v = d11 * d20 - d01 * d21, w = d00 * d21 - d01 * d20, u = whole - v - w;
-  if (!(std::min({u, v, w}) > 1e-6 * whole)) return 0;
+  const Weights k = weights(x, t);
+  if (!(std::min({k.u, k.v, k.w}) > 1e-6 * k.whole)) return 0;
   // (a barycentric coordinate is the distance to its edge over the height: twice the area,
   // sqrt(whole), over the edge's length)
-  const double area2 = std::sqrt(whole);
-  const double to_edge = std::min({u / std::sqrt((T.c - T.b).squaredNorm()), v / std::sqrt(d11), w / std::sqrt(d00)}) * area2 / whole;
+  const Tri& T = tri_[std::size_t(t)];
+  const double to_edge =
+      std::min({k.u / std::sqrt((T.c - T.b).squaredNorm()), k.v / std::sqrt(k.ac2), k.w / std::sqrt(k.ab2)}) *
+      std::sqrt(k.whole) / k.whole;
   return 0.5 * to_edge;
 }
 

@@ -125,6 +125,12 @@ class Mesh {
   Vec3 to_body(const Vec3& x) const { return moved_ ? Vec3(center0_ + rotation_.transpose() * (x - center_)) : x; }
   Vec3 to_world(const Vec3& X) const { return moved_ ? Vec3(center_ + rotation_ * (X - center0_)) : X; }
   MeshPoint nearest_body(const Vec3& X, Index t) const;
+  // X's barycentric coordinates in triangle t (body frame), each times `whole` (u: a's, v: b's,
+  // w: c's), and the squares of the edges ab and ac.
+  struct Weights {
+    double u, v, w, whole, ab2, ac2;
+  };
+  Weights weights(const Vec3& X, Index t) const;
   // The triangles whose cells meet the box X +- ext, sorted, each once.
   void candidates(const Vec3& X, double ext, std::vector<Index>& out) const;
   static std::vector<Index>& scratch();
