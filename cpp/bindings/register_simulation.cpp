@@ -213,6 +213,7 @@ void register_simulation(py::class_<Sim>& cls) {
   option(cls, "rebuild_every_step", &tsubu::Options::rebuild_every_step);
   cls.def_property("_mesh_sheets", &Sim::mesh_sheets, &Sim::set_mesh_sheets);  // (testing aids)
   cls.def_property_readonly("_mesh_sheet_count", &Sim::mesh_sheet_count);
+  cls.def_property_readonly("_list_sizes", &Sim::list_sizes);
   enum_option(cls, "history_rule", "tangential_history", &tsubu::Options::history);
   enum_option(cls, "slip_rule", "slip_rule", &tsubu::Options::slip);
   law_choices(cls);

@@ -160,19 +160,40 @@ void Simulation::set_contact_state(const ContactState& pairs, const ContactState
     }
     st.touch[to] = 1;
   };
-  for (std::size_t e = 0; e < walls.owner.size(); ++e) {
-    const Index i = particles_.index(walls.owner[e]);
-    Index q = lists_.wall_offset[i];
-    const Index element = walls.element.empty() ? 0 : walls.element[e];
-    while (q < lists_.wall_offset[i + 1] &&
-           (lists_.wall_index[q] != walls.partner[e] || lists_.wall_element[q] != element))
-      ++q;
-    require(q < lists_.wall_offset[i + 1], "sphere " + std::to_string(walls.owner[e]) +
-                                         " is not near wall " + std::to_string(walls.partner[e]) +
-                                         " (element " + std::to_string(element) + ")");
-    put(contacts_.walls, walls, e, q);
+  // The wall contacts go to the stash, rows by internal index, from which the near-wall list
+  // takes them as a refresh takes the last list's (they stay in it while they touch).
+  {
+    const std::size_t n = particles_.size(), m = walls.owner.size();
+    Array<Index>& rows = contacts_.stash_wall_offset;
+    rows.assign(n + 1, 0);
+    std::vector<Index> row_of(m);
+    for (std::size_t e = 0; e < m; ++e) {
+      const Index i = particles_.index(walls.owner[e]);
+      const Index element = walls.element.empty() ? 0 : walls.element[e];
+      require(lists_.reaches(i, Index(walls.partner[e]), element),
+              "sphere " + std::to_string(walls.owner[e]) + " is not near wall " +
+                  std::to_string(walls.partner[e]) + " (element " + std::to_string(element) + ")");
+      row_of[e] = i;
+      ++rows[std::size_t(i) + 1];
+    }
+    for (std::size_t i = 0; i < n; ++i) rows[i + 1] += rows[i];
+    contacts_.stash_wall_index.resize(m);
+    contacts_.stash_wall_element.resize(m);
+    for (std::size_t k = 0; k < EntryStore::kFields; ++k)  // (a law's unused arrays stay empty)
+      contacts_.stash_walls[k].assign(std::size_t(walls.widths[k]) * m, 0.0);
+    std::vector<Index> fill(rows.begin(), rows.end() - 1);
+    for (std::size_t e = 0; e < m; ++e) {
+      const Index q = fill[std::size_t(row_of[e])]++;
+      contacts_.stash_wall_index[q] = Index(walls.partner[e]);
+      contacts_.stash_wall_element[q] = walls.element.empty() ? 0 : walls.element[e];
+      for (std::size_t k = 0; k < EntryStore::kFields; ++k) {
+        const std::size_t wd = walls.widths[k];
+        std::copy(walls.values[k].begin() + wd * e, walls.values[k].begin() + wd * (e + 1),
+                  contacts_.stash_walls[k].begin() + wd * std::size_t(q));
+      }
+    }
   }
-  lists_.finish_restore(list_context());  // the near-wall subset now includes the touching walls
+  lists_.finish_restore(list_context());  // the near-wall list now holds the touching walls
   for (std::size_t e = 0; e < pairs.owner.size(); ++e) {
     const Index i = particles_.index(pairs.owner[e]);
     const Index* first = lists_.near_partner.data() + lists_.near_offset[i];

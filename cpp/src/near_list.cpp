@@ -12,7 +12,7 @@ namespace tsubu {
 
 using namespace list_loops;
 
-void NeighborList::refresh_near(const Context& c, bool transfer, bool reordered) {
+void NeighborList::refresh_near(const Context& c, bool transfer, bool reordered, bool wall_transfer) {
   const std::size_t n = c.particles.size();
   ParticleStore& ps = c.particles.arrays();
   ContactStore& cs = c.contacts;
@@ -60,6 +60,7 @@ void NeighborList::refresh_near(const Context& c, bool transfer, bool reordered)
   reach_above = above;
 
   // 2. Contact state, carried over by (owner id, partner id): rows are sorted by partner id.
+  refresh_walls(c, wall_transfer, reordered);  // (sizes the store's wall arrays; the pairs' here)
   cs.size(near_partner.size(), wall_index.size(), scan_threads(c));
   for (Array<double>* a : cs.pairs.carried()) zero(*a, c);
   const std::size_t old_n = cs.stash_offset.size() == 0 ? 0 : cs.stash_offset.size() - 1;
@@ -158,49 +159,110 @@ void NeighborList::refresh_near(const Context& c, bool transfer, bool reordered)
     if (near_rev_offset[i + 1] - near_rev_offset[i] > 1)
       insertion_sort(near_rev.data() + near_rev_offset[i], near_rev.data() + near_rev_offset[i + 1],
                      [&](Index q) { return ps.id[near_owner[q]]; });
-  // 4. The near-wall entries, and the particles with entries.
-  const bool moving = c.walls.moving();
-  auto keeps = [&](long i, Index e) {
-    return moving || cs.walls.touch[e] || c.walls.within(vec3(x, i), r[i], wall_index[e], wall_element[e], reach);
-  };
-  wall_near_offset.resize(n + 1);
-  wall_near_offset[0] = 0;
-  if (!c.parallel || c.threads <= 1) {  // one pass
-    wall_near.resize(wall_index.size());
-    Index p = 0;
-    for (long i = 0; i < ni; ++i) {
-      for (Index e = wall_offset[i]; e < wall_offset[i + 1]; ++e) {
-        wall_near[p] = e;
-        p += keeps(i, e) ? 1 : 0;
-      }
-      wall_near_offset[i + 1] = p;
-    }
-    wall_near.resize(static_cast<std::size_t>(p));
-  } else {  // counted, then written, the rows shared between the threads
-    wall_keep_.resize(wall_index.size());
-#pragma omp parallel for schedule(static) num_threads(c.threads)
-    for (long i = 0; i < ni; ++i) {
-      Index count = 0;
-      for (Index e = wall_offset[i]; e < wall_offset[i + 1]; ++e) {
-        wall_keep_[e] = keeps(i, e);
-        count += wall_keep_[e];
-      }
-      wall_near_offset[i + 1] = count;
-    }
-    running_sums(wall_near_offset.data(), ni, scan_threads(c));
-    wall_near.resize(static_cast<std::size_t>(wall_near_offset[n]));
-#pragma omp parallel for schedule(static) num_threads(c.threads)
-    for (long i = 0; i < ni; ++i) {
-      Index p = wall_near_offset[i];
-      for (Index e = wall_offset[i]; e < wall_offset[i + 1]; ++e)
-        if (wall_keep_[e]) wall_near[p++] = e;
-    }
-  }
+  // 4. The positions the step reads: every near-wall entry (flat sheets fold some), and the
+  //    particles with entries.
+  wall_near_offset.assign(wall_offset.begin(), wall_offset.end());
+  fit(wall_near, wall_index.size());
+  for (std::size_t e = 0; e < wall_near.size(); ++e) wall_near[e] = static_cast<Index>(e);
   gather_sheets(c);
   index_entries(c);
   cache_terms(c);
   moved_near = 0;
   ++refreshes;
+}
+
+void NeighborList::refresh_walls(const Context& c, bool transfer, bool reordered) {
+  const std::size_t n = c.particles.size();
+  const long ni = static_cast<long>(n);
+  ParticleStore& ps = c.particles.arrays();
+  ContactStore& cs = c.contacts;
+  const double* x = ps.x.data();
+  const double* r = ps.radius.data();
+  const double reach = near_skin();
+  const bool moving = c.walls.moving();
+  // The stash (the last near-wall list, stash_near_walls; or a checkpoint's contacts): rows by
+  // old index, keys, state. Its touching entries stay in the list, with their state.
+  const std::size_t old_n = transfer && !cs.stash_wall_offset.empty() ? cs.stash_wall_offset.size() - 1 : 0;
+  const Array<double>& old_overlap = cs.stash_walls[1];
+  auto old_row = [&](long i) -> Index {
+    if (old_n == 0) return -1;
+    Index oi = static_cast<Index>(i);
+    if (reordered) {
+      if (ps.id[i] >= static_cast<Id>(old_index_of_.size())) return -1;  // added since
+      oi = old_index_of_[ps.id[i]];
+    }
+    return oi >= 0 && static_cast<std::size_t>(oi) < old_n ? oi : -1;
+  };
+  // The stashed entry of old row oi with key (w, element), or -1 (rows are short: a scan).
+  auto stashed = [&](Index oi, Index w, Index element) -> Index {
+    if (oi < 0) return -1;
+    for (Index q = cs.stash_wall_offset[oi]; q < cs.stash_wall_offset[oi + 1]; ++q)
+      if (cs.stash_wall_index[q] == w && cs.stash_wall_element[q] == element) return q;
+    return -1;
+  };
+  auto keeps = [&](long i, Index e, Index q) {
+    return moving || (q >= 0 && touching(c.law, old_overlap[q])) ||
+           c.walls.within(vec3(x, i), r[i], wall_reach_index[e], wall_reach_element[e], reach);
+  };
+  // 1. Counted, then written, the rows shared between the threads.
+  wall_offset.resize(n + 1);
+  wall_offset[0] = 0;
+#pragma omp parallel for schedule(static) num_threads(c.threads) if (c.parallel)
+  for (long i = 0; i < ni; ++i) {
+    const Index oi = old_row(i);
+    Index count = 0;
+    for (Index e = wall_reach_offset[i]; e < wall_reach_offset[i + 1]; ++e)
+      count += keeps(i, e, stashed(oi, wall_reach_index[e], wall_reach_element[e])) ? 1 : 0;
+    wall_offset[i + 1] = count;
+  }
+  running_sums(wall_offset.data(), ni, scan_threads(c));
+  const std::size_t m = static_cast<std::size_t>(wall_offset[n]);
+  fit(wall_index, m);
+  fit(wall_element, m);
+  fit(wall_owner, m);
+  cs.size(near_partner.size(), m, scan_threads(c));
+  for (Array<double>* a : cs.walls.carried()) zero(*a, c);
+  if (c.walls.has_meshes()) wall_tangent.resize(m);
+  else wall_tangent.clear();
+  wall_clear.assign(wall_tangent.size(), Walls::Clearance{});
+  // (A record, where a sphere stood when its entry was found clear, and the tangent plane it
+  // keeps: carried while the particles keep their places. A fresh record measures the entry.)
+  const std::size_t stashed_entries = cs.stash_wall_index.size();
+  const bool records = !reordered && !wall_clear.empty() && clear_stash_.size() == stashed_entries &&
+                       tangent_stash_.size() == stashed_entries;
+  const auto width = EntryStore::widths(cs.wall_shape);
+  const auto state = cs.walls.carried();
+  // 2. Each row writes only its own entries, its own old row and its own dissipation.
+#pragma omp parallel for schedule(static) num_threads(c.threads) if (c.parallel)
+  for (long i = 0; i < ni; ++i) {
+    const Index oi = old_row(i);
+    Index k = wall_offset[i];
+    for (Index e = wall_reach_offset[i]; e < wall_reach_offset[i + 1]; ++e) {
+      const Index q = stashed(oi, wall_reach_index[e], wall_reach_element[e]);
+      if (!keeps(i, e, q)) continue;
+      wall_index[k] = wall_reach_index[e];
+      wall_element[k] = wall_reach_element[e];
+      wall_owner[k] = static_cast<Index>(i);
+      if (q >= 0 && records) wall_clear[k] = clear_stash_[q], wall_tangent[k] = tangent_stash_[q];
+      if (q >= 0 && touching(c.law, old_overlap[q])) {
+        for (std::size_t f = 0; f < ContactStore::kFields; ++f) {
+          const Array<double>& old = cs.stash_walls[f];
+          Array<double>& now = *state[f];
+          if (now.empty() || old.empty()) continue;  // the old or new law has no such array
+          const std::size_t wd = width[f];
+          std::copy(&old[wd * q], &old[wd * q] + wd, &now[wd * k]);
+        }
+        cs.stash_walls[1][q] = 0;  // carried
+      }
+      ++k;
+    }
+    if (oi < 0) continue;
+    for (Index q = cs.stash_wall_offset[oi]; q < cs.stash_wall_offset[oi + 1]; ++q)
+      if (touching(c.law, old_overlap[q]))  // touching, and now beyond the skin: it opened
+        ps.dissipated[i] += spring_energy(c, ps.material[i], c.walls.material(cs.stash_wall_index[q]),
+                                          cs.stash_walls[0], q);
+  }
+  mark_touching(cs.walls, c);
 }
 
 void NeighborList::gather_sheets(const Context& c) {

@@ -39,15 +39,11 @@ void NeighborList::rebuild(const Context& c, double skin_now, bool keep_history,
   if (transfer) {
     cs.stash_pair_state(near_offset, near_partner, c.particles.arrays().id, c.law,
                                c.parallel ? c.threads : 1);
-    cs.stash_wall_offset.swap(wall_offset);
-    cs.stash_wall_index.swap(wall_index);
-    cs.stash_wall_element.swap(wall_element);
+    stash_near_walls(c);
     old_index_of_.resize(c.particles.id_bound());
     const long ids = static_cast<long>(old_index_of_.size());
 #pragma omp parallel for schedule(static) num_threads(c.threads) if (c.parallel)
     for (long id = 0; id < ids; ++id) old_index_of_[id] = c.particles.index(Id(id));
-    const auto now = cs.walls.carried();
-    for (std::size_t k = 0; k < ContactStore::kFields; ++k) cs.stash_walls[k].swap(*now[k]);
   }
   if (periodic) {
     c.particles.drop_ghosts();
@@ -62,11 +58,11 @@ void NeighborList::rebuild(const Context& c, double skin_now, bool keep_history,
   // 3. Verlet half list, each pair owned by its lower id.
   build_verlet(c, grid, skin_now);
 
-  // 4. Near-wall list and its state.
-  build_walls(c, skin_now, transfer, old_n);
+  // 4. The walls' reach list.
+  build_walls(c, skin_now);
 
-  // 5. The near list and its contact state.
-  refresh_near(c, transfer, true);
+  // 5. The near and near-wall lists and their contact state.
+  refresh_near(c, transfer, true, transfer);
 
   // 6. Reference state for the rebuild criterion.
   moved = 0;
@@ -174,70 +170,50 @@ void NeighborList::build_verlet(const Context& c, const CellGrid& grid, double s
   else build(std::false_type{});
 }
 
-void NeighborList::build_walls(const Context& c, double skin_now, bool transfer, std::size_t old_n) {
-  // Particles within r + skin of a wall element (or behind it).
+void NeighborList::build_walls(const Context& c, double skin_now) {
+  // The (wall, element) keys within r + skin of each sphere (or behind it).
   const std::size_t n = c.particles.size();
   ParticleStore& ps = c.particles.arrays();
   const double* x = ps.x.data();
   const double* r = ps.radius.data();
   const long ni = static_cast<long>(n);
-  wall_offset.resize(n + 1);  // (rows 1..n counted below)
-  wall_offset[0] = 0;
+  wall_reach_offset.resize(n + 1);  // (rows 1..n counted below)
+  wall_reach_offset[0] = 0;
 #pragma omp parallel for schedule(static) num_threads(c.threads) if (c.parallel)
   for (long i = 0; i < ni; ++i) {
     Index count = 0;
     c.walls.for_each_near(vec3(x, i), r[i], skin_now, [&](Index, Index) { ++count; });
-    wall_offset[i + 1] = count;
+    wall_reach_offset[i + 1] = count;
   }
-  running_sums(wall_offset.data(), ni, scan_threads(c));
-  wall_index.resize(static_cast<std::size_t>(wall_offset[n]));
-  wall_element.resize(wall_index.size());
-  wall_owner.resize(wall_index.size());
+  running_sums(wall_reach_offset.data(), ni, scan_threads(c));
+  wall_reach_index.resize(static_cast<std::size_t>(wall_reach_offset[n]));
+  wall_reach_element.resize(wall_reach_index.size());
 #pragma omp parallel for schedule(static) num_threads(c.threads) if (c.parallel)
   for (long i = 0; i < ni; ++i) {
-    Index e = wall_offset[i];
+    Index e = wall_reach_offset[i];
     c.walls.for_each_near(vec3(x, i), r[i], skin_now, [&](Index w, Index element) {
-      wall_owner[e] = static_cast<Index>(i);
-      wall_element[e] = element;
-      wall_index[e++] = w;
+      wall_reach_element[e] = element;
+      wall_reach_index[e++] = w;
     });
   }
+}
+
+void NeighborList::stash_near_walls(const Context& c) {
   ContactStore& cs = c.contacts;
-  cs.size(near_partner.size(), wall_index.size(), scan_threads(c));
-  if (c.walls.has_meshes()) wall_tangent.resize(wall_index.size());
-  else wall_tangent.clear();
-  reset_clearance();
-  for (Array<double>* a : cs.walls.carried()) zero(*a, c);
-  if (transfer) {  // wall contact state, by (id, wall, element)
-    const auto width = EntryStore::widths(cs.wall_shape);
-    const auto state = cs.walls.carried();
-    // Each row writes only its own entries, its own old row and its own dissipation.
-#pragma omp parallel for schedule(static) num_threads(c.threads) if (c.parallel)
-    for (long i = 0; i < ni; ++i) {
-      const Id a = ps.id[i];
-      if (a >= static_cast<Id>(old_index_of_.size())) continue;  // added since
-      const Index oi = old_index_of_[a];
-      if (static_cast<std::size_t>(oi) >= old_n) continue;
-      for (Index e = wall_offset[i]; e < wall_offset[i + 1]; ++e)
-        for (Index q = cs.stash_wall_offset[oi]; q < cs.stash_wall_offset[oi + 1]; ++q)
-          if (cs.stash_wall_index[q] == wall_index[e] && cs.stash_wall_element[q] == wall_element[e]) {
-            for (std::size_t k = 0; k < ContactStore::kFields; ++k) {
-              const Array<double>& old = cs.stash_walls[k];
-              Array<double>& now = *state[k];
-              if (now.empty() || old.empty()) continue;  // the old or new law has no such array
-              const std::size_t wd = width[k];
-              std::copy(&old[wd * q], &old[wd * q] + wd, &now[wd * e]);
-            }
-            cs.stash_walls[1][q] = 0;  // carried
-            break;
-          }
-      for (Index q = cs.stash_wall_offset[oi]; q < cs.stash_wall_offset[oi + 1]; ++q)
-        if (touching(c.law, cs.stash_walls[1][q]))  // touching, and now beyond the skin: it opened
-          ps.dissipated[i] += spring_energy(c, ps.material[i], c.walls.material(cs.stash_wall_index[q]),
-                                            cs.stash_walls[0], q);
-    }
-  }
-  mark_touching(cs.walls, c);
+  cs.stash_wall_offset.swap(wall_offset);
+  cs.stash_wall_index.swap(wall_index);
+  cs.stash_wall_element.swap(wall_element);
+  const auto now = cs.walls.carried();
+  for (std::size_t k = 0; k < ContactStore::kFields; ++k) cs.stash_walls[k].swap(*now[k]);
+  clear_stash_.swap(wall_clear);
+  tangent_stash_.swap(wall_tangent);
+}
+
+bool NeighborList::reaches(Index i, Index wall, Index element) const {
+  if (static_cast<std::size_t>(i) + 1 >= wall_reach_offset.size()) return false;
+  for (Index e = wall_reach_offset[i]; e < wall_reach_offset[i + 1]; ++e)
+    if (wall_reach_index[e] == wall && wall_reach_element[e] == element) return true;
+  return false;
 }
 
 namespace {
@@ -310,7 +286,10 @@ void NeighborList::remove(const Context& c, const Id* gone, std::size_t count) {
   const std::size_t rev_kept = drop_rows(near_rev_offset, row_to, pair_to, &near_rev, &pair_to_);
   remap(near_rev, pair_to, rev_kept, pair_to_);
 
-  // The near-wall list, its state, and the subset the step reads.
+  // The reach list; the near-wall list, its state, and the positions the step reads.
+  const std::size_t reach_kept = drop_rows(wall_reach_offset, row_to, reach_to_, nullptr, nullptr);
+  compact(wall_reach_index, reach_to_, reach_kept);
+  compact(wall_reach_element, reach_to_, reach_kept);
   const std::size_t walls_kept = drop_rows(wall_offset, row_to, wall_to_, nullptr, nullptr);
   compact(wall_index, wall_to_, walls_kept);
   compact(wall_element, wall_to_, walls_kept);
@@ -331,14 +310,18 @@ void NeighborList::remove(const Context& c, const Id* gone, std::size_t count) {
 void NeighborList::refresh(const Context& c) {
   c.contacts.stash_pair_state(near_offset, near_partner, c.particles.arrays().id, c.law,
                                c.parallel ? c.threads : 1);
-  refresh_near(c, true, false);
+  stash_near_walls(c);
+  refresh_near(c, true, false, true);
 }
 
 void NeighborList::rebuild_empty(const Context& c, double skin_now, bool wrap) {
   rebuild(c, skin_now, false, wrap);
 }
 
-void NeighborList::finish_restore(const Context& c) { refresh_near(c, false, false); }
+void NeighborList::finish_restore(const Context& c) {
+  clear_stash_.clear();  // (no records: every entry is measured)
+  refresh_near(c, false, false, true);
+}
 
 double NeighborList::spring_energy(const Context& c, int a, int b, const Array<double>& xi, std::size_t e) {
   if (xi.empty()) return 0;
@@ -369,12 +352,13 @@ std::size_t NeighborList::near_bytes() const {
                         near_entry, sum_entry);
 }
 std::size_t NeighborList::wall_bytes() const {
-  return capacity_bytes(wall_offset, wall_index, wall_element, wall_owner, wall_near_offset, wall_near, wall_sheet,
+  return capacity_bytes(wall_reach_offset, wall_reach_index, wall_reach_element, wall_offset, wall_index,
+                        wall_element, wall_owner, wall_near_offset, wall_near, wall_sheet,
                         sheet_offset, sheet_entry, sheet_slot, sheet_room);
 }
 std::size_t NeighborList::scratch_bytes() const {
   return capacity_bytes(cell_start_, cell_of_, cell_key_, perm_, old_index_of_, active, scratch_,
-                        scratch_int_, wall_keep_, sheet_mark_, wall_near_next_, sheet_rows_[0], sheet_rows_[1],
+                        scratch_int_, reach_to_, sheet_mark_, wall_near_next_, sheet_rows_[0], sheet_rows_[1],
                         sheet_rows_[2]);
 }
 

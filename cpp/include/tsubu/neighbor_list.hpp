@@ -51,9 +51,15 @@ class NeighborList {
   // entry: for the linear law the dashpot itself; for Hertz sqrt(R*) and the dashpot's mass
   // term), fixed while the pair is in the list: square roots saved per contact and step.
   Array<double> near_entry;
-  // Near-wall list: (sphere, wall, element) entries within r + skin, by sphere; they hold the
-  // wall contact state. The step loop reads the subset within r + skin/10 (all of them if a wall
-  // moves), refreshed with the near list: wall_near (entry indices, by sphere).
+  // The walls' two levels, as the pairs': the reach list, the (wall, element) keys within
+  // r + skin of each sphere, rows by sphere (built at a rebuild, keys only); and the near-wall
+  // list, its entries within r + skin/10 (all of them if a wall moves, and every touching one),
+  // rows by sphere in the reach list's order, refreshed with the near list. The near-wall
+  // entries hold the wall contact state (ContactStore::walls, wall_tangent, wall_clear), so
+  // that a step finds a sphere's few entries side by side, not scattered among the tens of
+  // triangles a fine mesh puts within its reach. wall_near: the positions the step reads,
+  // entry indices by sphere (every entry, but where flat sheets fold several into one).
+  Array<Index> wall_reach_offset, wall_reach_index, wall_reach_element;
   Array<Index> wall_offset, wall_index, wall_element, wall_owner, wall_near_offset, wall_near;
   // Particles with near-pair or near-wall entries: the only ones whose contacts can be summed;
   // and, per step, 1 for those with an entry in contact (set by the contact pass, cleared by
@@ -76,7 +82,7 @@ class NeighborList {
   std::vector<Plane> wall_tangent;
   // Scenes with a mesh: how far each near-wall entry was found clear of its sphere, and where
   // (Walls::measure skips it while the sphere stays near there); reset by every rebuild and run
-  // start (reset_clearance), kept through refreshes and removals (entries keep their element).
+  // start (reset_clearance), carried through refreshes and removals by (wall, element).
   std::vector<Walls::Clearance> wall_clear;
   void reset_clearance() {
     wall_clear.assign(wall_tangent.size(), Walls::Clearance{});
@@ -132,7 +138,7 @@ class NeighborList {
   // `wrap` false keeps a periodic box's spheres where they are (a checkpoint's restore: the
   // run it resumes wraps them at its own next rebuild, so that the bits match).
   void rebuild(const Context& c, double skin, bool keep_history, bool wrap = true);
-  // Refreshes the near lists from the Verlet list, carrying the contact state over.
+  // Refreshes the near lists from the Verlet and reach lists, carrying the contact state over.
   void refresh(const Context& c);
   // Removes the spheres `gone` (count ids) from the particles and from every list, with their
   // entries, in place: the others keep their order, their entries and their state, and no list
@@ -141,8 +147,12 @@ class NeighborList {
   // near_entry from the current pair table (after a refresh, or when parameters change).
   void cache_terms(const Context& c);
   // Puts contact state saved by ids (checkpoints) into fresh lists: builds them without
-  // carrying anything, and returns; the caller fills the entries, then calls finish_restore().
+  // carrying anything, and returns; the caller puts the wall contacts in ContactStore's stash
+  // (rows by internal index, as stash_near_walls leaves them), then calls finish_restore(),
+  // which carries them into the near-wall list, and then fills the pair entries.
   void rebuild_empty(const Context& c, double skin, bool wrap = true);
+  // Whether sphere i (internal index) has wall `wall`'s element `element` within its reach.
+  bool reaches(Index i, Index wall, Index element) const;
   // How deep the ghosts' layer is: a pair's reach (the cell side h = 2 r_max + skin) beyond
   // spheres that may stand up to skin/2 outside the box (wrapped at the last rebuild).
   static double ghost_margin(double h, double skin) { return h + 0.5 * skin; }
@@ -192,10 +202,15 @@ class NeighborList {
   // and ghost_cell_start_ (each cell's ghosts, counted from the first ghost row).
   void make_ghosts(const Context& c, const CellGrid& grid);
   void build_verlet(const Context& c, const CellGrid& grid, double skin);
-  void build_walls(const Context& c, double skin, bool transfer, std::size_t old_n);
-  // Builds the near list from the Verlet list; with `transfer`, carries the stashed state over
-  // by (owner id, partner id); `reordered`: the particles were re-sorted since the stash.
-  void refresh_near(const Context& c, bool transfer, bool reordered);
+  void build_walls(const Context& c, double skin);
+  // Builds the near list from the Verlet list; with `transfer`, carries the stashed pair state
+  // over by (owner id, partner id), with `wall_transfer` the stashed wall state by (sphere,
+  // wall, element); `reordered`: the particles were re-sorted since the stash.
+  void refresh_near(const Context& c, bool transfer, bool reordered, bool wall_transfer);
+  // The near-wall list from the reach list (refresh_near's part).
+  void refresh_walls(const Context& c, bool transfer, bool reordered);
+  // Moves the near-wall list's rows, keys, state and records into the stash.
+  void stash_near_walls(const Context& c);
   // Folds the near-wall positions of each sphere's flat sheets into one (wall_sheet).
   void gather_sheets(const Context& c);
   // busy, loaded, the sum entries, max_entries and `active` from the lists' entries.
@@ -211,13 +226,16 @@ class NeighborList {
                               const Array<double>& xi, std::size_t e);
 
   // The entry map of a removal: each old entry's new index, or -1.
-  Array<Index> pair_to_, wall_to_;
+  Array<Index> pair_to_, wall_to_, reach_to_;
+  // The near-wall entries' clearance records and the tangent planes they keep while a refresh
+  // rebuilds the list (the rest of their state is in ContactStore's stash).
+  std::vector<Walls::Clearance> clear_stash_;
+  std::vector<Plane> tangent_stash_;
   // Scratch reused by rebuilds (no allocation once warm).
   Array<Index> cell_start_, cell_of_, perm_, old_index_of_, ghost_cell_start_;
   Array<CellKey> cell_key_;
   Array<double> scratch_;
   Array<Index> scratch_int_;
-  Array<std::uint8_t> wall_keep_;  // which near-wall entries a refresh keeps in wall_near
   // gather_sheets: each position's mark, each sphere's positions, sheets and sheet entries
   // (running sums), and the positions kept.
   Array<Index> sheet_mark_, wall_near_next_;
