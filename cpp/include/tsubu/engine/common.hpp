@@ -32,6 +32,18 @@ struct Features {
 // x * 0 is 0 for any finite x and NaN for inf or NaN: summing these flags a non-finite value
 // anywhere in a loop without a branch per element.
 TSUBU_INLINE double nonfinite_flag(double x) { return x * 0.0; }
+
+// Requests the cache line holding *a. gcc takes __builtin_prefetch for a call without effects:
+// a loop (or a function) of nothing but prefetches is deleted outright, so those are written
+// as an instruction it must keep.
+template <class T>
+TSUBU_INLINE void request(const T* a) {
+#if defined(__x86_64__) || defined(__i386__)
+  asm volatile("prefetcht0 %0" : : "m"(*reinterpret_cast<const char*>(a)));
+#else
+  __builtin_prefetch(a);
+#endif
+}
 // Whether x is finite, as arithmetic (inf - inf and NaN - NaN are NaN); std::isfinite and
 // Eigen's allFinite() are calls that keep the loop from vectorising.
 TSUBU_INLINE bool is_finite(double x) { return x - x == 0; }

@@ -39,8 +39,8 @@ struct ContactPass {
   // skips it changes the register allocation of the whole range loop.
   [[gnu::noinline]] static void prefetch_partners(const ContactView& c, Index lo, Index hi) {
     for (Index q = lo; q < hi; ++q) {
-      __builtin_prefetch(c.x + 3 * std::size_t(c.par[q]));
-      __builtin_prefetch(c.diss + c.own[q], 1);
+      request(c.x + 3 * std::size_t(c.par[q]));
+      request(c.diss + c.own[q]);
     }
   }
 
@@ -83,9 +83,27 @@ struct ContactPass {
   // The near-wall entries of particles [lo, hi) in contact or just released; after the pairs
   // those particles own, so that an owner's dissipation sum keeps one order.
   static void wall_part(const ContactView& c, Index lo, Index hi, Scan& scan, Block& block, Found& f) {
-    Index* const wact = c.wact;
     const Index wlo = c.wnear_offset[lo], whi = c.wnear_offset[hi];
-    if (c.meshes) MeshContacts<Law>::measure(c, wlo, whi);
+    if (!c.meshes) {
+      wall_positions(c, wlo, whi, scan, block, f);
+      return;
+    }
+    // With a mesh, a run of whole spheres at a time: measured (which requests each entry's
+    // data a few positions ahead), then evaluated while that data is still in the nearest cache.
+    for (Index a = wlo; a < whi;) {
+      Index b = std::min(whi, a + kWallRun);
+      if (b < whi) b = c.wnear_offset[c.wown[c.wnear[b - 1]] + 1];  // (to the end of its sphere)
+      MeshContacts<Law>::measure(c, a, b);
+      wall_positions(c, a, b, scan, block, f);
+      a = b;
+    }
+  }
+  static constexpr Index kWallRun = 256;
+
+  // The near-wall positions [wlo, whi) (whole spheres; measured, where there is a mesh): those
+  // in contact or just released evaluated, in order.
+  static void wall_positions(const ContactView& c, Index wlo, Index whi, Scan& scan, Block& block, Found& f) {
+    Index* const wact = c.wact;
     auto in_contact = [&](Index p) {
       const Index e = c.wnear[p];
       const Wall& P = wall_plane(c, e);

@@ -27,15 +27,32 @@ struct MeshContacts {
 
   // The near-wall positions [lo, hi) of the list (whole spheres).
   static void measure(const ContactView& c, Index lo, Index hi) {
+    // (A sphere near a wall seldom has the next sphere in the array as neighbour: each
+    // position's entry data is requested a few positions ahead, or each read would wait.)
+    for (Index p = lo; p < std::min(hi, lo + kAhead); ++p) prefetch(c, c.wnear[p]);
     for (Index p = lo; p < hi;) {
       const Index i = c.wown[c.wnear[p]];
       Index q = p + 1;
       while (q < hi && c.wown[c.wnear[q]] == i) ++q;
+      for (Index a = p + kAhead; a < std::min(hi, q + kAhead); ++a) prefetch(c, c.wnear[a]);
       const Vec3 x = vec3(c.x, i);
       if (c.sheets.of) measure_sheets(c, x, c.r[i], p, q);
       else measure_entries(c, x, c.r[i], c.wnear + p, int(q - p));
       p = q;
     }
+  }
+
+  static constexpr Index kAhead = 24;
+  static void prefetch(const ContactView& c, Index e) {
+    const char* t = reinterpret_cast<const char*>(c.tangent + e);
+    request(t);
+    request(t + sizeof(Wall) - 1);
+    if (c.clear) request(c.clear + e);
+    request(c.wtouch + e);
+    if constexpr (F::kHistory) request(c.wxi + Law::history_width * e);
+    if constexpr (C::kWallMoment) request(c.wnxft + 3 * e);
+    request(c.wforce + 3 * e);
+    request(c.woverlap + e);
   }
 
   // One sphere's entries[0, n), all of its entries of each wall among them.
