@@ -32,18 +32,6 @@ struct ContactPass {
     return count;
   }
 
-  // In a large scene the scan waits on memory for the partners' positions (a partner sits up to
-  // a layer of cells further down the array; in the fused pass, up to two layers back, in the
-  // last level of cache) and the store on the owners' dissipation sums: those of the chunk two
-  // chunks ahead are requested while this one is scanned. Not inlined: inlined, the branch that
-  // skips it changes the register allocation of the whole range loop.
-  [[gnu::noinline]] static void prefetch_partners(const ContactView& c, Index lo, Index hi) {
-    for (Index q = lo; q < hi; ++q) {
-      request(c.x + 3 * std::size_t(c.par[q]));
-      request(c.diss + c.own[q]);
-    }
-  }
-
   // 1/|x_ij| of every kept pair, in one pass that the compiler vectorises: the square roots and
   // divisions then leave the contact law's critical path.
   [[gnu::noinline]] static void inverse_distances(Scan& s, Index count) {
@@ -55,12 +43,12 @@ struct ContactPass {
     f.fmax = std::max(f.fmax, force.cwiseAbs().sum());
   }
 
-  // Near-pair entries [lo, hi), whole owners, a chunk of kBlock at a time. `far`: the
-  // partners' positions are requested two chunks ahead.
-  [[gnu::noinline]] static void pair_range(const ContactView& c, Index lo, Index hi, bool far,
-                                           Scan& scan, Block& block, Found& f) {
+  // Near-pair entries [lo, hi), whole owners, a chunk of kBlock at a time. (The partners'
+  // positions are not requested ahead: that prefetch had been compiled away since da3e6fa, and
+  // made to run it was no faster; docs/benchmarks.md, "Walls in two levels".)
+  [[gnu::noinline]] static void pair_range(const ContactView& c, Index lo, Index hi, Scan& scan,
+                                           Block& block, Found& f) {
     for (Index base = lo; base < hi; base += kBlock) {
-      if (far) prefetch_partners(c, std::min(hi, base + 2 * kBlock), std::min(hi, base + 3 * kBlock));
       const Index count = compact_pairs(c, base, std::min<Index>(hi, base + kBlock), scan);
       inverse_distances(scan, count);
       if constexpr (F::kBlocked) {
@@ -147,7 +135,7 @@ struct ContactPass {
       Scan scan{};
       Block block(c.same);
       Found f;
-      if (c.pairs > 0) pair_range(c, c.owned[me.lo], c.owned[me.hi], c.far, scan, block, f);
+      if (c.pairs > 0) pair_range(c, c.owned[me.lo], c.owned[me.hi], scan, block, f);
       wall_part(c, me.lo, me.hi, scan, block, f);
       excess = f.excess, fmax = f.fmax, bad = f.bad;
       work.stop();

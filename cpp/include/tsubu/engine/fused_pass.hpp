@@ -62,11 +62,11 @@ struct FusedPass {
         PP::chunk(pv, c0, c1, b, vmax2, rel2, check);
         const Index ready = std::min(ihi, c1 - above);  // every partner of an owner below has moved
         if (ready > done) {
-          CP::pair_range(c, owned[done], owned[ready], true, scan, block, f);
+          CP::pair_range(c, owned[done], owned[ready], scan, block, f);
           done = ready;
         }
       }
-      CP::pair_range(c, owned[done], owned[ihi], true, scan, block, f);
+      CP::pair_range(c, owned[done], owned[ihi], scan, block, f);
       // The owners whose partners other threads move, once those threads have posted. (Where
       // a part is shorter than the reach, an owner of [lo, ilo) may reach past hi too, and
       // beyond the next thread's part.)
@@ -74,8 +74,8 @@ struct FusedPass {
       for (int s = t - 1; s >= 0 && begin(s + 1) > lo - below; --s) moved.wait(s, round);
       for (int s = t + 1; s < nt && begin(s) < hi + above; ++s) moved.wait(s, round);
       work.start();
-      CP::pair_range(c, owned[lo], owned[ilo], true, scan, block, f);
-      CP::pair_range(c, owned[ihi], owned[hi], true, scan, block, f);
+      CP::pair_range(c, owned[lo], owned[ilo], scan, block, f);
+      CP::pair_range(c, owned[ihi], owned[hi], scan, block, f);
       CP::wall_part(c, lo, hi, scan, block, f);
       excess = f.excess, fmax = f.fmax, bad = f.bad;
       work.stop();

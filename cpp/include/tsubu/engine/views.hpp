@@ -92,7 +92,6 @@ struct ContactView {
   Index pairs;  // near-pair entries
   Index n;             // particles (near-list owners)
   int threads;
-  bool far;  // a large scene: partners' positions are prefetched
 
   // `ahead`: 1 where the pass evaluates the next step's contacts (the fused pass).
   ContactView(World& s, double dt_, long ahead = 0)
@@ -124,8 +123,7 @@ struct ContactView {
         same(s.sphere_material >= 0 ? &s.pairs(s.sphere_material, s.sphere_material) : nullptr),
         step(std::uint64_t(s.run.step + ahead)), seed(s.options.seed), dt(dt_),
         pairs(Index(l.near_partner.size())),
-        n(Index(s.particles.size())), threads(s.threads),
-        far(s.particles.size() >= kFar) {}
+        n(Index(s.particles.size())), threads(s.threads) {}
 };
 
 // The plane a near-wall entry's contact is evaluated on: its wall, or in a scene with meshes the
