@@ -204,15 +204,29 @@ void NeighborList::refresh_walls(const Context& c, bool transfer, bool reordered
     return moving || (q >= 0 && touching(c.law, old_overlap[q])) ||
            c.walls.within(vec3(x, i), r[i], wall_reach_index[e], wall_reach_element[e], reach);
   };
-  // 1. Counted, then written, the rows shared between the threads.
+  // 1. Counted, then written, the rows shared between the threads; reach_keep_: each reach
+  //    entry's stashed entry (-1: none), or -2 where it is not kept.
+  // (Most spheres reach no wall. Between rebuilds a sphere's old row lies within its reach, so
+  // only the spheres with a reach row, wall_rows_, are visited; after one, every sphere: one
+  // whose row is now empty may have left a touching contact behind.)
+  const bool all = reordered;
+  const long rows = all ? ni : static_cast<long>(wall_rows_.size());
+  auto sphere = [&](long k) -> long { return all ? k : wall_rows_[k]; };
   wall_offset.resize(n + 1);
+  if (!all) std::fill(wall_offset.begin(), wall_offset.end(), 0);
   wall_offset[0] = 0;
+  fit(reach_keep_, wall_reach_index.size());
 #pragma omp parallel for schedule(static) num_threads(c.threads) if (c.parallel)
-  for (long i = 0; i < ni; ++i) {
+  for (long k = 0; k < rows; ++k) {
+    const long i = sphere(k);
     const Index oi = old_row(i);
     Index count = 0;
-    for (Index e = wall_reach_offset[i]; e < wall_reach_offset[i + 1]; ++e)
-      count += keeps(i, e, stashed(oi, wall_reach_index[e], wall_reach_element[e])) ? 1 : 0;
+    for (Index e = wall_reach_offset[i]; e < wall_reach_offset[i + 1]; ++e) {
+      const Index q = stashed(oi, wall_reach_index[e], wall_reach_element[e]);
+      const bool kept = keeps(i, e, q);
+      reach_keep_[e] = kept ? q : -2;
+      count += kept ? 1 : 0;
+    }
     wall_offset[i + 1] = count;
   }
   running_sums(wall_offset.data(), ni, scan_threads(c));
@@ -234,12 +248,13 @@ void NeighborList::refresh_walls(const Context& c, bool transfer, bool reordered
   const auto state = cs.walls.carried();
   // 2. Each row writes only its own entries, its own old row and its own dissipation.
 #pragma omp parallel for schedule(static) num_threads(c.threads) if (c.parallel)
-  for (long i = 0; i < ni; ++i) {
+  for (long s = 0; s < rows; ++s) {
+    const long i = sphere(s);
     const Index oi = old_row(i);
     Index k = wall_offset[i];
     for (Index e = wall_reach_offset[i]; e < wall_reach_offset[i + 1]; ++e) {
-      const Index q = stashed(oi, wall_reach_index[e], wall_reach_element[e]);
-      if (!keeps(i, e, q)) continue;
+      const Index q = reach_keep_[e];
+      if (q == -2) continue;
       wall_index[k] = wall_reach_index[e];
       wall_element[k] = wall_reach_element[e];
       wall_owner[k] = static_cast<Index>(i);

@@ -196,6 +196,7 @@ void NeighborList::build_walls(const Context& c, double skin_now) {
       wall_reach_index[e++] = w;
     });
   }
+  list_loops::filter(ni, [&](long i) { return wall_reach_offset[i + 1] > wall_reach_offset[i]; }, wall_rows_, c);
 }
 
 void NeighborList::stash_near_walls(const Context& c) {
@@ -290,6 +291,8 @@ void NeighborList::remove(const Context& c, const Id* gone, std::size_t count) {
   const std::size_t reach_kept = drop_rows(wall_reach_offset, row_to, reach_to_, nullptr, nullptr);
   compact(wall_reach_index, reach_to_, reach_kept);
   compact(wall_reach_element, reach_to_, reach_kept);
+  list_loops::filter(static_cast<long>(particles.size()),
+                     [&](long i) { return wall_reach_offset[i + 1] > wall_reach_offset[i]; }, wall_rows_, c);
   const std::size_t walls_kept = drop_rows(wall_offset, row_to, wall_to_, nullptr, nullptr);
   compact(wall_index, wall_to_, walls_kept);
   compact(wall_element, wall_to_, walls_kept);
@@ -358,7 +361,7 @@ std::size_t NeighborList::wall_bytes() const {
 }
 std::size_t NeighborList::scratch_bytes() const {
   return capacity_bytes(cell_start_, cell_of_, cell_key_, perm_, old_index_of_, active, scratch_,
-                        scratch_int_, reach_to_, sheet_mark_, wall_near_next_, sheet_rows_[0], sheet_rows_[1],
+                        scratch_int_, reach_to_, reach_keep_, wall_rows_, sheet_mark_, wall_near_next_, sheet_rows_[0], sheet_rows_[1],
                         sheet_rows_[2]);
 }
 

@@ -226,7 +226,8 @@ class NeighborList {
                               const Array<double>& xi, std::size_t e);
 
   // The entry map of a removal: each old entry's new index, or -1.
-  Array<Index> pair_to_, wall_to_, reach_to_;
+  Array<Index> pair_to_, wall_to_, reach_to_, reach_keep_;
+  Array<Index> wall_rows_;  // the spheres with a reach row (build_walls, remove)
   // The near-wall entries' clearance records and the tangent planes they keep while a refresh
   // rebuilds the list (the rest of their state is in ContactStore's stash).
   std::vector<Walls::Clearance> clear_stash_;
