@@ -226,3 +226,32 @@ def test_a_mesh_that_overlaps_itself_in_one_plane_makes_no_sheet():
     assert_same_bits(a, b)
     c = a.contacts()
     assert ((c["wall"] >= 0).sum()) == 2 * len(a)  # (a contact per copy)
+
+
+def test_a_fine_mesh_keeps_contact_state_only_for_the_triangles_near_each_sphere(tmp_path):
+    """The walls have two levels, as the pairs (docs/architecture.md, "Neighbour lists: two
+    levels"): a rebuild lists every triangle within r + skin of a sphere as keys only, and each
+    refresh keeps, with its contact state, those within r + skin/10 and every touching one. Under
+    a floor whose triangles are a fifth of a diameter, a resting sphere reaches some fifty of
+    them, and its state is kept for the few under it; a checkpoint taken mid-run (its wall
+    contacts put back through the same refresh) resumes to the same bits."""
+    v, f = mesh.square((0.0, 0.0, 0.0), 10e-3, (0.0, 0.0, 1.0), 50)
+    v, normal = tilted(v)
+    sim = tsubu.Simulation(dt=DT, gravity=tuple(-G * normal))
+    mat = material()
+    sim.add_mesh(v, f, material=mat)
+    g = (np.arange(4) - 1.5) * 2.2 * R
+    x = np.stack(np.meshgrid(g, g, [0.0], indexing="ij"), -1).reshape(-1, 3)
+    x = np.asarray(tilted(x)[0]) + (R + 1e-6) * normal  # (tilted() shifts points as it shifts the floor)
+    sim.add_spheres(x, R, mat)
+    sim.run(steps=2000)
+    verlet, near, reach, near_walls, busy = sim._core._list_sizes
+    touching = int(np.sum(sim.contacts()["wall"] >= 0))
+    assert touching == 16  # (every sphere rests on the floor)
+    assert reach >= 20 * touching  # (every triangle within r + skin: keys only)
+    assert touching <= near_walls <= reach / 4  # (state for those within r + skin/10)
+    sim.save(tmp_path / "floor.tsubu")
+    resumed = tsubu.Simulation.load(tmp_path / "floor.tsubu")
+    for s in (sim, resumed):
+        s.run(steps=700)
+    assert_same_bits(sim, resumed)

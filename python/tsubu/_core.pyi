@@ -400,7 +400,7 @@ class Simulation:
     def wall_loads(self) -> tuple[numpy.typing.NDArray[numpy.float64], numpy.typing.NDArray[numpy.float64]]:
         ...
     @property
-    def _list_sizes(self) -> typing.Annotated[list[int], "FixedSize(4)"]:
+    def _list_sizes(self) -> typing.Annotated[list[int], "FixedSize(5)"]:
         ...
     @property
     def _mesh_sheet_count(self) -> int:

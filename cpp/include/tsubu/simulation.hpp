@@ -150,11 +150,12 @@ class Simulation : private detail::RunHooks {
   std::size_t mesh_sheet_count() const {
     return lists_.wall_sheet.empty() ? 0 : lists_.sheet_offset.size() - 1;
   }
-  // The lists' sizes now: Verlet pairs, near pairs, near-wall entries, busy particles (a
-  // diagnostic for benchmarks: how many entries a step scans against how many touch).
-  std::array<std::size_t, 4> list_sizes() const {
-    return {lists_.pair_partner.size(), lists_.near_partner.size(), lists_.wall_near.size(),
-            lists_.busy.size()};
+  // The lists' sizes now: Verlet pairs, near pairs, the walls' reach entries, near-wall entries
+  // (those with contact state), busy particles (a diagnostic for benchmarks and tests: how many
+  // entries a step scans against how many touch).
+  std::array<std::size_t, 5> list_sizes() const {
+    return {lists_.pair_partner.size(), lists_.near_partner.size(), lists_.wall_reach_index.size(),
+            lists_.wall_index.size(), lists_.busy.size()};
   }
   // The speed of light [m/s]: no wall of a Newtonian scene moves faster, and far beyond it the
   // contacts' products overflow doubles (a wall sliding at 1e150 m/s lost its friction).
