@@ -60,8 +60,7 @@ void NeighborList::refresh_near(const Context& c, bool transfer, bool reordered,
   reach_above = above;
 
   // 2. Contact state, carried over by (owner id, partner id): rows are sorted by partner id.
-  refresh_walls(c, wall_transfer, reordered);  // (sizes the store's wall arrays; the pairs' here)
-  cs.size(near_partner.size(), wall_index.size(), scan_threads(c));
+  refresh_walls(c, wall_transfer, reordered);  // (sizes the store's arrays, pairs' and walls')
   for (Array<double>* a : cs.pairs.carried()) zero(*a, c);
   const std::size_t old_n = cs.stash_offset.size() == 0 ? 0 : cs.stash_offset.size() - 1;
   if (transfer && old_n > 0) {

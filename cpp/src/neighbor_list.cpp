@@ -362,7 +362,7 @@ std::size_t NeighborList::wall_bytes() const {
 std::size_t NeighborList::scratch_bytes() const {
   return capacity_bytes(cell_start_, cell_of_, cell_key_, perm_, old_index_of_, active, scratch_,
                         scratch_int_, reach_to_, reach_keep_, wall_rows_, sheet_mark_, wall_near_next_, sheet_rows_[0], sheet_rows_[1],
-                        sheet_rows_[2]);
+                        sheet_rows_[2], clear_stash_, tangent_stash_);
 }
 
 }  // namespace tsubu

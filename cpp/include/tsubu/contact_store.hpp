@@ -36,7 +36,9 @@ class ContactStore {
   void size(std::size_t pair_entries, std::size_t wall_entries, int threads = 1);
 
   // The stash: touching pair entries, compactly, rows by owner in `stash_offset` (the owner's
-  // old index), partners as ids; the wall entries whole, with their (wall, element) keys.
+  // old index), partners as ids; the near-wall list's entries whole, rows by sphere in
+  // `stash_wall_offset`, with their (wall, element) keys (NeighborList::stash_near_walls, or a
+  // checkpoint's wall contacts).
   Array<Index> stash_offset;
   Array<Id> stash_partner;
   std::array<Array<double>, kFields> stash_pairs, stash_walls;
