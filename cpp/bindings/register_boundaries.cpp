@@ -89,6 +89,50 @@ void register_boundaries(py::class_<Sim>& cls) {
         return py::dict("id"_a = id, "outlet"_a = outlet, "step"_a = step, "time"_a = time,
                         "position"_a = x, "velocity"_a = v);
       });
+
+  // A domain decomposition's halo (tsubu.parallel, docs/parallel.md).
+  cls.def(
+         "_insert_spheres",
+         [](Sim& s, const Ids& ids, const Array& x, const Array& r, const IntArray& m, const Array& v,
+            const Array& w, const Array& dissipated) {
+           const std::size_t n = count_of(ids);
+           check_n3(x, n, "positions");
+           check_n3(v, n, "velocities");
+           check_n3(w, n, "angular_velocities");
+           if (static_cast<std::size_t>(r.size()) != n || static_cast<std::size_t>(m.size()) != n ||
+               static_cast<std::size_t>(dissipated.size()) != n)
+             throw py::value_error("radii, materials and dissipated must have one value per id");
+           s.insert_spheres(n, ids.data(), x.data(), r.data(), m.data(), v.data(), w.data(), dissipated.data());
+         },
+         "ids"_a, "positions"_a, "radii"_a, "materials"_a, "velocities"_a, "angular_velocities"_a,
+         "dissipated"_a)
+      .def("_drop_spheres", [](Sim& s, const Ids& ids) { s.drop_spheres(count_of(ids), ids.data()); }, "ids"_a)
+      .def("_pack_state",
+           [](const Sim& s, const Ids& ids, py::array_t<double, py::array::c_style> out) {
+             if (static_cast<std::size_t>(out.size()) < 9 * count_of(ids))
+               throw py::value_error("out must hold 9 values per id");
+             return s.pack_state(count_of(ids), ids.data(), out.mutable_data());
+           },
+           "ids"_a, "out"_a)
+      .def("_unpack_state",
+           [](Sim& s, const Ids& ids, const Array& in) {
+             if (static_cast<std::size_t>(in.size()) < 9 * count_of(ids))
+               throw py::value_error("in must hold 9 values per id");
+             return s.unpack_state(count_of(ids), ids.data(), in.data());
+           },
+           "ids"_a, "values"_a)
+      .def(
+          "_set_exchange",
+          [](Sim& s, py::object f) {
+            if (f.is_none()) return s.set_exchange({});
+            // The loop calls it with the GIL released (run_checking_signals).
+            s.set_exchange([f](double vmax2) {
+              py::gil_scoped_acquire gil;
+              return f(vmax2).cast<double>();
+            });
+          },
+          "exchange"_a)
+      .def_property_readonly("_has_exchange", &Sim::has_exchange);
 }
 
 }  // namespace tsubu_py

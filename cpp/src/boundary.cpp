@@ -24,10 +24,10 @@ std::string too_fast(double speed) {
 
 }  // namespace
 
-void Simulation::remove_now(std::size_t count, const Id* ids, const int* outlet) {
+void Simulation::remove_now(std::size_t count, const Id* ids, const int* outlet, bool log) {
   std::vector<char> gone(particles_.id_bound(), 0);
   for (std::size_t k = 0; k < count; ++k) gone[static_cast<std::size_t>(ids[k])] = 1;
-  {  // the log, by increasing id within a step
+  if (log) {  // the log, by increasing id within a step
     std::vector<std::size_t> order(count);
     for (std::size_t k = 0; k < count; ++k) order[k] = k;
     std::sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) { return ids[a] < ids[b]; });

@@ -45,6 +45,25 @@ Id Particles::add(std::size_t n, const double* positions, const double* radii, c
   return first;
 }
 
+void Particles::insert(std::size_t n, const Id* ids, const double* positions, const double* radii,
+                       const int* materials, const double* velocities,
+                       const double* angular_velocities, const std::vector<Material>& table) {
+  if (n == 0) return;
+  drop_ghosts();
+  const std::size_t first = n_;
+  add(n, positions, radii, materials, velocities, angular_velocities, table);  // ids bound.. bound+n
+  index_of_.resize(index_of_.size() - n);  // (add handed out new ids: take them back)
+  Id top = -1;
+  for (std::size_t k = 0; k < n; ++k) top = std::max(top, ids[k]);
+  if (static_cast<std::size_t>(top) >= index_of_.size()) index_of_.resize(static_cast<std::size_t>(top) + 1, kGone);
+  for (std::size_t k = 0; k < n; ++k) {
+    s_.id[first + k] = ids[k];
+    index_of_[static_cast<std::size_t>(ids[k])] = static_cast<Index>(first + k);
+  }
+  if (dense()) rank_of_.clear();
+  else rank_ids();
+}
+
 void Particles::reserve(std::size_t count) {
   s_.reserve(count);
   if (dense()) index_of_.reserve(count);

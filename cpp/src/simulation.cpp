@@ -416,7 +416,7 @@ long Simulation::run(long steps, const std::function<bool()>& should_stop, doubl
 detail::World Simulation::world() {
   return {particles_, walls_, lists_, contacts_,        domain_,        pairs_,
           opt_,       run_,   *this,  sphere_material_, threads_used(), max_move_,
-          fixed_.empty() ? nullptr : &fixed_, !outlets_.empty()};
+          fixed_.empty() ? nullptr : &fixed_, !outlets_.empty(), static_cast<bool>(exchange_)};
 }
 
 NeighborList::Context Simulation::list_context() {
@@ -443,7 +443,7 @@ void Simulation::start_audit(bool walls_move) {
 }
 
 void Simulation::audit_energy() {
-  if (law_ == nullptr || !energy_ref_valid_ || walls_.moving() || fixed_.moving() || energy_ref_gravity_ != opt_.gravity ||
+  if (exchange_ || law_ == nullptr || !energy_ref_valid_ || walls_.moving() || fixed_.moving() || energy_ref_gravity_ != opt_.gravity ||
       !lists_.built(particles_.size()) || run_.step == energy_ref_step_)
     return;
   audit();

@@ -72,6 +72,12 @@ class Particles {
   Id add(std::size_t n, const double* positions, const double* radii, const int* materials,
          const double* velocities, const double* angular_velocities,
          const std::vector<Material>& table);
+  // Appends n spheres with the given ids (each neither present nor repeated; the Simulation
+  // checks): a sphere that comes back, with the id it had, as a domain decomposition's halo
+  // brings its neighbours' spheres in (docs/parallel.md). Masses as add().
+  void insert(std::size_t n, const Id* ids, const double* positions, const double* radii,
+              const int* materials, const double* velocities, const double* angular_velocities,
+              const std::vector<Material>& table);
   // Capacity for `count` spheres in all.
   void reserve(std::size_t count);
   // Removes the spheres with the given ids (each present, each once; the Simulation checks).

@@ -91,6 +91,30 @@ class Simulation : private detail::RunHooks {
   // increasing id (ids need not be 0..N-1). Throws InvalidArgument for an unknown or repeated
   // id, std::logic_error during a run.
   void remove_spheres(std::size_t count, const Id* ids);
+  // ---- a domain decomposition's halo (docs/parallel.md) --------------------------------------
+  // A rank of a decomposed scene holds its own spheres and copies of its neighbours' near its
+  // sub-domain (the halo), each under its global id; these move spheres in and out of it.
+  // insert_spheres puts spheres back under the ids given (each unused now), with their state and
+  // dissipated energy, as they are elsewhere: no overlap check, no log. drop_spheres takes
+  // spheres out without logging them (their contacts with the others end; those between the
+  // others are kept). Both throw InvalidArgument for a bad id, std::logic_error during a run.
+  void insert_spheres(std::size_t n, const Id* ids, const double* positions, const double* radii,
+                      const int* materials, const double* velocities,
+                      const double* angular_velocities, const double* dissipated);
+  void drop_spheres(std::size_t count, const Id* ids);
+  // The state of the listed spheres (x, v, w: 9 values each) into out, skipping ids not
+  // present; returns how many it wrote. unpack_state writes them back in the same way (ids not
+  // present skipped, so that a sphere an outlet took on both sides drops out of both) and returns
+  // the largest |v|^2 it wrote (0 for none).
+  std::size_t pack_state(std::size_t n, const Id* ids, double* out) const;
+  double unpack_state(std::size_t n, const Id* ids, const double* in);
+  // Called by the loop after each step's particle pass with that pass's max |v|^2: a rank
+  // updates its halo there (unpack_state) and returns the largest |v|^2 it wrote, which the
+  // lists' moved bound then includes. It may request_stop(). While one is set, the loop fuses
+  // no passes and the energy audit is off (halo spheres change by other forces than the rank's).
+  void set_exchange(std::function<double(double)> exchange) { exchange_ = std::move(exchange); }
+  bool has_exchange() const { return static_cast<bool>(exchange_); }
+
   Id add_sphere(const Vec3& position, double radius, int material,
                 const Vec3& velocity = Vec3::Zero(), const Vec3& angular_velocity = Vec3::Zero());
   int add_plane(const Vec3& point, const Vec3& normal, int material,
@@ -433,6 +457,7 @@ class Simulation : private detail::RunHooks {
   void start_audit(bool walls_move) override;
   // (A removal during the run leaves the reference invalid: the audit then takes it anew.)
   void audit() override {
+    if (exchange_) return;
     if (!energy_ref_valid_) return start_audit(false);
     check_energy(energy_ref_);
   }
@@ -443,9 +468,11 @@ class Simulation : private detail::RunHooks {
   [[noreturn]] void report_nonfinite_velocity() const override;
   [[noreturn]] void report_fast(double max_move) const override;
   void remove_outgoing() override;
+  double exchange_ghosts(double vmax2) override { return exchange_(vmax2); }
+  std::function<double(double)> exchange_;
   // remove_spheres without the checks of the ids and of a run, logging the spheres removed by
   // outlet `outlet[k]` (-1: by remove_spheres).
-  void remove_now(std::size_t count, const Id* ids, const int* outlet);
+  void remove_now(std::size_t count, const Id* ids, const int* outlet, bool log = true);
   // A moving wall faster than light (kMaxWallSpeed) where a sphere is: InvalidArgument.
   void check_wall_speeds() const;
 

@@ -91,6 +91,8 @@ struct Stepper {
                           run.regions[int(Region::Particles)]);
       run.balance.step();
       if (s.fixed) vmax2 = std::max(vmax2, s.fixed->after(s.particles, dt));
+      // A rank's halo takes its owners' state here; its moves count in the bound.
+      if (s.exchange) vmax2 = std::max(vmax2, s.hooks.exchange_ghosts(vmax2));
       run.last_move = std::sqrt(vmax2) * dt;  // the distance any particle moved: dt max|v|
       // (A Lees–Edwards image also moves at the slide's speed: a pair across the sheared faces
       // closes by at most 2 moved + slide, so each sphere books half the slide; without walls,
@@ -123,7 +125,8 @@ struct Stepper {
     // (Walls may move, with their prescribed motion: a servo wall's speed has no bound that
     // fusable could use, and a moving mesh's measure is left to the two passes.)
     const bool walls = !s.walls.moving() || (!s.walls.servoed() && !s.walls.has_meshes());
-    return Features<Law>::kBlocked && walls && !s.fixed && !s.outlets && !s.domain.periodic() &&
+    // (Nor a rank's halo, which takes its owners' state between the two.)
+    return Features<Law>::kBlocked && walls && !s.fixed && !s.outlets && !s.domain.periodic() && !s.exchange &&
            s.particles.size() >= ContactView::kFar;
   }
 

@@ -96,6 +96,9 @@ class RunHooks {
   // At the end of a step of a scene with outlets (World::outlets): removes the spheres they
   // take (docs/boundaries.md).
   virtual void remove_outgoing() {}
+  // After a step's particle pass, with its max |v|^2, in a decomposed scene (World::exchange):
+  // the halo's spheres take their owners' state; returns the largest |v|^2 among them.
+  virtual double exchange_ghosts(double) { return 0; }
 
  protected:
   ~RunHooks() = default;
@@ -116,6 +119,7 @@ struct World {
   double max_move;      // m: the most a step may move a sphere (Simulation::max_move)
   FixedSpheres* fixed = nullptr;  // the fixed spheres; null when there are none
   bool outlets = false;           // whether the scene has outlets (RunHooks::remove_outgoing)
+  bool exchange = false;          // a rank of a decomposed scene (RunHooks::exchange_ghosts)
 
   // A Lees–Edwards box without walls: the lists bound the spheres' motion relative to the mean
   // flow (Domain::sheared_bound).

@@ -1,0 +1,107 @@
+// A domain decomposition's halo (docs/parallel.md): spheres that come into a rank under their
+// global ids, leave it, and take their owners' state after each step.
+#include <algorithm>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include "check.hpp"
+#include "tsubu/simulation.hpp"
+
+namespace tsubu {
+
+using detail::finite3;
+using detail::fmt;
+using detail::require;
+
+void Simulation::insert_spheres(std::size_t n, const Id* ids, const double* positions, const double* radii,
+                                const int* materials, const double* velocities,
+                                const double* angular_velocities, const double* dissipated) {
+  if (running()) throw std::logic_error("tsubu: Simulation::insert_spheres during a run");
+  std::vector<char> seen;
+  for (std::size_t k = 0; k < n; ++k) {
+    const Id id = ids[k];
+    require(id >= 0 && !particles_.has(id), [&] {
+      return "insert_spheres: id " + std::to_string(id) + (id < 0 ? " is negative" : " is in use");
+    });
+    if (static_cast<std::size_t>(id) >= seen.size()) seen.resize(static_cast<std::size_t>(id) + 1, 0);
+    require(!seen[static_cast<std::size_t>(id)],
+            [&] { return "insert_spheres: id " + std::to_string(id) + " listed twice"; });
+    seen[static_cast<std::size_t>(id)] = 1;
+    require(finite3(positions + 3 * k) && finite3(velocities + 3 * k) && finite3(angular_velocities + 3 * k) &&
+                std::isfinite(dissipated[k]),
+            [&] { return "insert_spheres: sphere " + std::to_string(id) + " has a value that is not finite"; });
+    require(radii[k] > 0 && std::isfinite(radii[k]), [&] {
+      return "insert_spheres: radius of sphere " + std::to_string(id) + " must be > 0, got " + fmt(radii[k]);
+    });
+    material(materials[k]);
+  }
+  if (n == 0) return;
+  // The contacts kept are carried by ids through the insertion (it changes internal indices).
+  const bool carry = law_ != nullptr && lists_.built(particles_.size());
+  ContactState pairs, walls;
+  if (carry) {
+    pairs = contact_state(false);
+    walls = contact_state(true);
+  }
+  domain_.clear_ghosts();
+  const std::size_t first = particles_.size();
+  particles_.insert(n, ids, positions, radii, materials, velocities, angular_velocities, materials_);
+  for (std::size_t k = 0; k < n; ++k) particles_.arrays().dissipated[first + k] = dissipated[k];
+  const long rebuilds = lists_.rebuilds, refreshes = lists_.refreshes;
+  lists_ = NeighborList();
+  lists_.rebuilds = rebuilds;
+  lists_.refreshes = refreshes;
+  energy_ref_valid_ = false;
+  run_.last_move = 0;
+  if (carry) set_contact_state(pairs, walls);
+}
+
+void Simulation::drop_spheres(std::size_t count, const Id* ids) {
+  if (running()) throw std::logic_error("tsubu: Simulation::drop_spheres during a run");
+  std::vector<char> gone(particles_.id_bound(), 0);
+  for (std::size_t k = 0; k < count; ++k) {
+    require(particles_.has(ids[k]), [&] { return "drop_spheres: no sphere " + std::to_string(ids[k]); });
+    require(!gone[static_cast<std::size_t>(ids[k])],
+            [&] { return "drop_spheres: sphere " + std::to_string(ids[k]) + " listed twice"; });
+    gone[static_cast<std::size_t>(ids[k])] = 1;
+  }
+  if (count == 0) return;
+  remove_now(count, ids, nullptr, false);
+}
+
+std::size_t Simulation::pack_state(std::size_t n, const Id* ids, double* out) const {
+  const ParticleStore& ps = particles_.arrays();
+  std::size_t m = 0;
+  for (std::size_t k = 0; k < n; ++k) {
+    if (!particles_.has(ids[k])) continue;
+    const std::size_t i = static_cast<std::size_t>(particles_.index(ids[k]));
+    double* o = out + 9 * m++;
+    for (int c = 0; c < 3; ++c) {
+      o[c] = ps.x[3 * i + c];
+      o[3 + c] = ps.v[3 * i + c];
+      o[6 + c] = ps.w[3 * i + c];
+    }
+  }
+  return m;
+}
+
+double Simulation::unpack_state(std::size_t n, const Id* ids, const double* in) {
+  ParticleStore& ps = particles_.arrays();
+  double v2 = 0;
+  std::size_t m = 0;
+  for (std::size_t k = 0; k < n; ++k) {
+    if (!particles_.has(ids[k])) continue;
+    const std::size_t i = static_cast<std::size_t>(particles_.index(ids[k]));
+    const double* o = in + 9 * m++;
+    for (int c = 0; c < 3; ++c) {
+      ps.x[3 * i + c] = o[c];
+      ps.v[3 * i + c] = o[3 + c];
+      ps.w[3 * i + c] = o[6 + c];
+    }
+    v2 = std::max(v2, o[3] * o[3] + o[4] * o[4] + o[5] * o[5]);
+  }
+  return v2;
+}
+
+}  // namespace tsubu

@@ -1,0 +1,473 @@
+"""A scene cut into sub-domains over MPI ranks, bit-identical to one process (docs/parallel.md).
+
+Every rank builds the same scene (the same script, or :meth:`Simulation.load` of one
+checkpoint), then :func:`decompose` cuts space into a regular grid of boxes, one per rank, and
+each rank keeps the spheres whose centre lies in its box (its own) and copies of the others'
+within reach of it (its halo), each under its global id. A step evaluates every contact of a
+rank's own spheres there, as one process would: the same two spheres, the same contact state,
+the same sums in id order. So the state after any number of steps is the same, bit for bit, for
+any number of ranks and threads. After each step the owners send their spheres' state to the
+ranks that hold copies (inside the loop, through mpi4py). Spheres move to another rank's box,
+and the cuts move with the load (:meth:`Decomposed.balance`), when the run stops between two
+steps for it: the halo's margin bounds how far spheres may move before then.
+
+Needs mpi4py and an MPI library: ``pip install "tsubu[mpi]"`` brings both (mpi4py and the
+``mpich`` wheel, with its ``mpiexec``)::
+
+    mpiexec -n 4 python script.py
+
+where ``script.py`` builds the scene, calls ``decompose(sim)`` and runs it.
+"""
+from __future__ import annotations
+
+import hashlib
+import math
+import pickle
+
+import numpy as np
+
+from . import _checks
+
+__all__ = ["decompose", "Decomposed"]
+
+_TAG_HALO = 0x7575
+
+
+def _mpi():
+    try:
+        from mpi4py import MPI
+    except ImportError as e:  # pragma: no cover - depends on the environment
+        raise ImportError('tsubu.parallel needs mpi4py and an MPI library: pip install "tsubu[mpi]"') from e
+    return MPI
+
+
+def grid_shape(ranks: int, extent) -> tuple[int, int, int]:
+    """The grid (nx, ny, nz) of ``ranks`` boxes that cuts a region of lengths ``extent`` into
+    the most cube-like boxes: of all factorisations nx ny nz = ranks, the one with the least
+    cut area per box (ties go to the first axes)."""
+    ranks = _checks.whole("ranks", ranks, minimum=1)
+    L = np.maximum(np.asarray(extent, dtype=float), 1e-300)
+    best, shape = math.inf, (ranks, 1, 1)
+    for nx in range(1, ranks + 1):
+        if ranks % nx:
+            continue
+        for ny in range(1, ranks // nx + 1):
+            if (ranks // nx) % ny:
+                continue
+            nz = ranks // nx // ny
+            n = np.array([nx, ny, nz], dtype=float)
+            box = L / n
+            # (the faces between boxes, summed: what the halo's volume grows with)
+            area = float(np.sum((n - 1) * L[[1, 0, 0]] * L[[2, 2, 1]]))
+            cost = (area, -min(box) / max(box))
+            if cost < (best if isinstance(best, tuple) else (best, 0)):
+                best, shape = cost, (nx, ny, nz)
+    return shape
+
+
+class Decomposed:
+    """One rank's part of a scene cut over the ranks of ``comm`` (made by :func:`decompose`).
+
+    Attributes
+    ----------
+    simulation : Simulation
+        This rank's spheres (its own and its halo) as a :class:`tsubu.Simulation`. Read it for
+        what it holds; do not add or remove spheres, walls or contacts on it directly.
+    comm : mpi4py.MPI.Comm
+        The ranks.
+    shape : tuple of 3 ints
+        Boxes along x, y and z (rank r is box r in C order).
+    cuts : list of 3 arrays
+        The box boundaries along each axis, m (the outer ones at -inf and +inf).
+    reach : float
+        m: the halo holds every sphere whose centre is within this distance of the box:
+        the largest diameter plus the skin plus ``margin``.
+    margin : float
+        m: the run stops to move spheres between ranks before any sphere can have moved
+        margin / 2 since the last time.
+    redistributions : int
+        How many times spheres were moved between ranks.
+    """
+
+    def __init__(self, simulation, comm, shape, margin):
+        self.simulation = simulation
+        self.comm = comm
+        self.shape = tuple(int(s) for s in shape)
+        self.margin = float(margin)
+        self.redistributions = 0
+        core = simulation._core
+        self._core = core
+        self._rank, self._size = comm.Get_rank(), comm.Get_size()
+        self._fixed = self._fixed_table()
+        radii = core.radii()
+        r_max = comm.allreduce(float(radii.max()) if len(radii) else 0.0, op=_mpi().MAX)
+        self.reach = 2.0 * r_max + float(core.skin()) + self.margin
+        self._moved = 0.0
+        self._due = False
+        self.cuts = self._balanced_cuts(core.positions(), core.get_ids(), everywhere=True)
+        self._removed_seen = 0
+        self._removed = []
+        # Every rank holds the whole scene now: keep what is this rank's.
+        ids, x = core.get_ids(), core.positions()
+        owner = self.owner_of(x)
+        keep = self._present(x, owner, self._rank)
+        self._set_lists(ids[keep], x[keep], owner[keep])
+        core._drop_spheres(ids[~keep])
+
+    # ---- geometry ---------------------------------------------------------------------------
+    def _balanced_cuts(self, x, ids, everywhere=False):
+        """Cuts that give each box about as many spheres: along each axis, at the quantiles of
+        the centres (all spheres, each counted once: by its owner, or by every rank when each
+        holds the whole scene)."""
+        MPI = _mpi()
+        cuts = []
+        for d in range(3):
+            n = self.shape[d]
+            if everywhere:
+                allx = np.sort(x[:, d])
+            else:
+                own = np.isin(ids, self._owned, assume_unique=True)
+                allx = np.sort(np.concatenate(self.comm.allgather(x[own, d])))
+            inner = []
+            if len(allx):
+                for k in range(1, n):
+                    q = allx[min(len(allx) - 1, (k * len(allx)) // n)]
+                    inner.append(float(q))
+            else:
+                inner = [0.0] * (n - 1)
+            cuts.append(np.array([-np.inf] + inner + [np.inf]))
+        del MPI
+        return cuts
+
+    def _box_of(self, rank):
+        ix, iy, iz = np.unravel_index(rank, self.shape)
+        lo = np.array([self.cuts[0][ix], self.cuts[1][iy], self.cuts[2][iz]])
+        hi = np.array([self.cuts[0][ix + 1], self.cuts[1][iy + 1], self.cuts[2][iz + 1]])
+        return lo, hi
+
+    def owner_of(self, x) -> np.ndarray:
+        """The rank whose box holds each centre (x: (N, 3), m)."""
+        x = np.asarray(x, dtype=float).reshape(-1, 3)
+        idx = [np.clip(np.searchsorted(self.cuts[d], x[:, d], side="right") - 1, 0, self.shape[d] - 1)
+               for d in range(3)]
+        return np.ravel_multi_index(idx, self.shape).astype(np.int64)
+
+    def _present(self, x, owner, rank):
+        """Whether each sphere (centres x, owners) is held by `rank`: its own, or in its halo."""
+        lo, hi = self._box_of(rank)
+        gap = np.maximum(np.maximum(lo - x, x - hi), 0.0)
+        return (owner == rank) | (np.sqrt(np.sum(gap * gap, axis=1)) <= self.reach)
+
+    def _set_lists(self, ids, x, owner):
+        """This rank's own spheres, and who sends what to whom each step (ids sorted on both
+        sides, so that the buffers line up): ids, x, owner are the spheres held here."""
+        me = self._rank
+        self._owned = np.sort(ids[owner == me])
+        own = owner == me
+        self._send, self._recv = {}, {}
+        for q in range(self._size):
+            if q == me:
+                continue
+            there = own & self._present(x, owner, q)
+            if there.any():
+                self._send[q] = np.sort(ids[there])
+            mine = owner == q
+            if mine.any():
+                self._recv[q] = np.sort(ids[mine])
+        self._send_buffers = {q: np.empty(9 * len(v)) for q, v in self._send.items()}
+        self._recv_buffers = {q: np.empty(9 * len(v)) for q, v in self._recv.items()}
+
+    def _fixed_table(self):
+        f = self._core.fixed_motion()
+        table = self.comm.allgather((np.asarray(f["ids"]), np.asarray(f["velocities"]),
+                                     np.asarray(f["angular_velocities"])))
+        ids = np.concatenate([t[0] for t in table]) if table else np.empty(0, np.int64)
+        v = np.concatenate([t[1] for t in table]).reshape(-1, 3)
+        w = np.concatenate([t[2] for t in table]).reshape(-1, 3)
+        ids, first = np.unique(ids, return_index=True)
+        return ids, v[first], w[first]
+
+    # ---- the step: the halo follows its owners ------------------------------------------------
+    def _exchange(self, vmax2: float) -> float:
+        MPI = _mpi()
+        core, comm = self._core, self.comm
+        requests = []
+        for q, buf in self._recv_buffers.items():
+            requests.append(comm.Irecv(buf, source=q, tag=_TAG_HALO))
+        for q, ids in self._send.items():
+            buf = self._send_buffers[q]
+            n = core._pack_state(ids, buf)
+            requests.append(comm.Isend(buf[: 9 * n], dest=q, tag=_TAG_HALO))
+        MPI.Request.Waitall(requests)
+        v2 = 0.0
+        for q, ids in self._recv.items():
+            v2 = max(v2, core._unpack_state(ids, self._recv_buffers[q]))
+        # The run stops for a redistribution before any sphere can have moved margin / 2.
+        self._moved += self._dt * math.sqrt(max(vmax2, v2))
+        moved = comm.allreduce(self._moved, op=MPI.MAX)
+        if moved > 0.5 * self.margin:
+            self._due = True
+            core.request_stop()
+        return v2
+
+    def run(self, steps: int) -> "Decomposed":
+        """Advance every rank by ``steps`` steps (a collective call: every rank calls it with
+        the same ``steps``). The state after it is the same, bit for bit, as one process's."""
+        steps = _checks.whole("steps", steps)
+        core = self._core
+        self._dt = float(core.time_step())
+        left = steps
+        core._set_exchange(self._exchange)
+        try:
+            while left > 0:
+                taken = core.run(left, False)
+                left -= taken
+                if self._due:
+                    self._due = False
+                    self.redistribute()
+        finally:
+            core._set_exchange(None)
+        return self
+
+    # ---- moving spheres between ranks -----------------------------------------------------------
+    def redistribute(self, balance: bool = False) -> None:
+        """Move spheres to the rank whose box now holds them, refill every halo and carry the
+        contacts with them (a collective call). ``balance``: first move the cuts so that the
+        boxes hold about as many spheres again (as LAMMPS's ``balance``)."""
+        core, comm, me = self._core, self.comm, self._rank
+        ids = core.get_ids()
+        x = core.positions()
+        self._harvest_removed(ids)
+        if balance:
+            self.cuts = self._balanced_cuts(x, ids)
+        owner = self.owner_of(x)
+        own = np.isin(ids, self._owned, assume_unique=True)
+        v, w = core.velocities(), core.angular_velocities()
+        radius, material, dissipated = core.radii(), core.materials(), core.dissipated()
+        pairs, walls = core.contact_state(False), core.contact_state(True)
+        pos = {int(i): k for k, i in enumerate(ids)}
+        pair_rows = np.array([pos[int(i)] for i in pairs["owner"]], dtype=np.int64)
+        partner_rows = np.array([pos[int(j)] for j in pairs["partner"]], dtype=np.int64)
+        wall_rows = np.array([pos[int(i)] for i in walls["owner"]], dtype=np.int64)
+        # Pairs this rank evaluated for one of its own spheres, walls of its own spheres: the
+        # state it sends (each is right here: docs/parallel.md, "The halo").
+        pair_mine = own[pair_rows] | own[partner_rows] if len(pair_rows) else np.zeros(0, bool)
+        wall_mine = own[wall_rows] if len(wall_rows) else np.zeros(0, bool)
+        outgoing = []
+        for q in range(self._size):
+            there = self._present(x, owner, q)
+            spheres = own & there
+            prow = pair_mine & there[pair_rows] & there[partner_rows] if len(pair_rows) else pair_mine
+            wrow = wall_mine & spheres[wall_rows] if len(wall_rows) else wall_mine
+            outgoing.append({
+                "ids": ids[spheres], "x": x[spheres], "v": v[spheres], "w": w[spheres],
+                "radius": radius[spheres], "material": material[spheres],
+                "dissipated": dissipated[spheres],
+                "pairs": _rows(pairs, prow), "walls": _rows(walls, wrow),
+            })
+        incoming = comm.alltoall(outgoing)
+        got = {k: np.concatenate([m[k] for m in incoming]) for k in
+               ("ids", "x", "v", "w", "radius", "material", "dissipated")}
+        order = np.argsort(got["ids"], kind="stable")
+        got = {k: a[order] for k, a in got.items()}
+        held = set(ids.tolist())
+        new = set(got["ids"].tolist())
+        leaving = np.array(sorted(held - new), dtype=np.int64)
+        arriving = np.isin(got["ids"], np.array(sorted(new - held), dtype=np.int64))
+        core._drop_spheres(leaving)
+        if arriving.any():
+            a = arriving
+            core._insert_spheres(got["ids"][a], got["x"][a].reshape(-1, 3), got["radius"][a],
+                                 got["material"][a].astype(np.int32), got["v"][a].reshape(-1, 3),
+                                 got["w"][a].reshape(-1, 3), got["dissipated"][a])
+            fixed_ids, fv, fw = self._fixed
+            back = np.isin(fixed_ids, got["ids"][a])
+            if back.any():
+                core.fix_spheres(fixed_ids[back], fv[back], fw[back])
+        # Contacts: this rank's own kept, the others' for the pairs it did not hold.
+        have_p, have_w = core.contact_state(False), core.contact_state(True)
+        merged_p = _merge([have_p] + [m["pairs"] for m in incoming], walls=False)
+        merged_w = _merge([have_w] + [m["walls"] for m in incoming], walls=True)
+        if len(merged_p["owner"]) != len(have_p["owner"]) or len(merged_w["owner"]) != len(have_w["owner"]):
+            core.set_contact_state(merged_p, merged_w)
+        gx = got["x"].reshape(-1, 3)
+        self._set_lists(got["ids"], gx, self.owner_of(gx))
+        self._moved = 0.0
+        self.redistributions += 1
+
+    def balance(self) -> None:
+        """Move the cuts so that every box holds about as many spheres, and the spheres with
+        them (a collective call)."""
+        self.redistribute(balance=True)
+
+    # ---- the whole scene on one rank ----------------------------------------------------------
+    def _harvest_removed(self, ids_now) -> None:
+        log = self._core.removed()
+        n = len(log["id"])
+        fresh = slice(self._removed_seen, n)
+        mine = np.isin(log["id"][fresh], self._owned)
+        if mine.any():
+            self._removed.append({k: np.asarray(a)[fresh][mine] for k, a in log.items()})
+        self._removed_seen = n
+
+    def removed(self) -> dict:
+        """The spheres outlets removed on every rank so far (as :attr:`Simulation.removed`),
+        on every rank (a collective call)."""
+        self._harvest_removed(None)
+        parts = [p for rank in self.comm.allgather(self._removed) for p in rank]
+        keys = ("id", "outlet", "step", "time", "position", "velocity")
+        if not parts:
+            empty = self._core.removed()
+            return {k: np.asarray(empty[k])[:0] for k in keys}
+        out = {k: np.concatenate([p[k] for p in parts]) for k in keys}
+        order = np.lexsort((out["id"], out["step"]))
+        return {k: a[order] for k, a in out.items()}
+
+    def gather(self, root: int = 0):
+        """The whole scene as one :class:`tsubu.Simulation` on rank ``root`` (None on the
+        others): every sphere with its state, every contact, as one process would hold them
+        after the same steps (a collective call). Save it, take its energy, write output."""
+        from .simulation import Simulation
+
+        core, comm = self._core, self.comm
+        ids = core.get_ids()
+        own = np.isin(ids, self._owned, assume_unique=True)
+        pairs, walls = core.contact_state(False), core.contact_state(True)
+        mine_p = np.isin(pairs["owner"], self._owned)  # (the lower id's owner sends a pair)
+        mine_w = np.isin(walls["owner"], self._owned)
+        part = {
+            "ids": ids[own], "x": core.positions()[own], "v": core.velocities()[own],
+            "w": core.angular_velocities()[own], "radius": core.radii()[own],
+            "material": core.materials()[own], "dissipated": core.dissipated()[own],
+            "pairs": _rows(pairs, mine_p), "walls": _rows(walls, mine_w),
+        }
+        parts = comm.gather(part, root=root)
+        if comm.Get_rank() != root:
+            return None
+        whole = pickle.loads(pickle.dumps(self.simulation))
+        wc = whole._core
+        wc._set_exchange(None)
+        wc._drop_spheres(wc.get_ids())
+        got = {k: np.concatenate([p[k] for p in parts]) for k in
+               ("ids", "x", "v", "w", "radius", "material", "dissipated")}
+        order = np.argsort(got["ids"], kind="stable")
+        got = {k: a[order] for k, a in got.items()}
+        wc._insert_spheres(got["ids"], got["x"].reshape(-1, 3), got["radius"], got["material"].astype(np.int32),
+                           got["v"].reshape(-1, 3), got["w"].reshape(-1, 3), got["dissipated"])
+        fixed_ids, fv, fw = self._fixed
+        back = np.isin(fixed_ids, got["ids"])
+        if back.any():
+            wc.fix_spheres(fixed_ids[back], fv[back], fw[back])
+        wc.set_contact_state(_merge([p["pairs"] for p in parts], walls=False),
+                             _merge([p["walls"] for p in parts], walls=True))
+        return whole
+
+
+def _rows(state: dict, mask) -> dict:
+    """The contacts of a contact_state dict where mask is True."""
+    out = {"owner": np.asarray(state["owner"])[mask], "partner": np.asarray(state["partner"])[mask],
+           "values": [np.asarray(a)[mask] for a in state["values"]], "widths": list(state["widths"])}
+    if "element" in state:
+        out["element"] = np.asarray(state["element"])[mask]
+    return out
+
+
+def _merge(states: list, walls: bool) -> dict:
+    """The contacts of several contact_state dicts, each key once (the first one's copy: every
+    copy of a contact holds the same bits), ordered by key."""
+    owner = np.concatenate([np.asarray(s["owner"], dtype=np.int64) for s in states])
+    partner = np.concatenate([np.asarray(s["partner"], dtype=np.int64) for s in states])
+    widths = next((list(s["widths"]) for s in states if len(s["owner"])), list(states[0]["widths"]))
+    if walls:
+        element = np.concatenate([np.asarray(s.get("element", np.zeros(len(s["owner"]), np.int64)),
+                                             dtype=np.int64) for s in states])
+        keys = np.stack([owner, partner, element], axis=1)
+    else:
+        keys = np.stack([owner, partner], axis=1)
+    if len(keys):
+        _, first = np.unique(keys, axis=0, return_index=True)
+    else:
+        first = np.zeros(0, np.int64)
+    values = []
+    for k, wd in enumerate(widths):
+        cols = [np.asarray(s["values"][k], dtype=float).reshape(len(s["owner"]), wd) for s in states]
+        values.append(np.concatenate(cols)[first] if len(first) else np.zeros((0, wd)))
+    out = {"owner": owner[first], "partner": partner[first], "values": values, "widths": widths}
+    if walls:
+        out["element"] = element[first]
+    return out
+
+
+def decompose(simulation, comm=None, shape=None, margin: float | None = None) -> Decomposed:
+    """Cut a scene over MPI ranks (a collective call: every rank calls it with the same scene).
+
+    Parameters
+    ----------
+    simulation : Simulation
+        The whole scene, the same on every rank (built by the same code, or loaded from one
+        checkpoint). From now on it holds this rank's part: use the returned object.
+    comm : mpi4py.MPI.Comm, optional
+        The ranks (default ``MPI.COMM_WORLD``).
+    shape : tuple of 3 ints, optional
+        Boxes along x, y, z, their product the number of ranks (default: :func:`grid_shape` of
+        the spheres' extent).
+    margin : float, optional
+        m, > 0: how much further than the contacts' reach the halo holds spheres (default: the
+        largest diameter). A larger margin redistributes less often and holds more copies.
+
+    Returns
+    -------
+    Decomposed
+        This rank's part; ``run``, ``gather``, ``removed`` and ``balance`` are collective.
+
+    Raises
+    ------
+    ValueError
+        A scene that differs between ranks, a bad ``shape`` or ``margin``, or what the
+        decomposition does not handle yet: a periodic box, servo walls, inserters.
+    ImportError
+        Without mpi4py.
+    """
+    MPI = _mpi()
+    if comm is None:
+        comm = MPI.COMM_WORLD
+    core = simulation._core
+    if simulation.box is not None:
+        raise ValueError("decompose: periodic boxes are not cut over ranks yet (docs/parallel.md)")
+    if simulation.inserters:
+        raise ValueError("decompose: inserters are not run over ranks yet: insert before decomposing")
+    for k in range(simulation.wall_count):
+        if simulation.wall(k).get("servo") is not None:
+            raise ValueError(f"decompose: wall {k} is a servo wall, which needs the force of every "
+                             "rank's contacts each step: not supported over ranks yet")
+    if core._has_exchange:
+        raise ValueError("decompose: this simulation is already decomposed")
+    # The same scene everywhere: the same spheres (a digest of their state and ids).
+    ids = core.get_ids()
+    h = hashlib.sha256()
+    for a in (ids, core.positions(), core.velocities(), core.radii(), np.array([core.step_count])):
+        h.update(np.ascontiguousarray(a).tobytes())
+    digest = h.hexdigest()
+    if len(set(comm.allgather(digest))) != 1:
+        raise ValueError("decompose: the scene differs between ranks (its spheres, their state or "
+                         "its step): every rank must build or load the same scene")
+    # What the scene's spheres decide by default (the step, the skin) is fixed now, from the
+    # whole scene, so that no rank's part decides it otherwise. (The characteristic impact
+    # speed is fixed by the first run, prepare_run, and kept through the halo's changes.)
+    core.prepare_run()
+    core.dt = float(core.time_step())
+    core.skin_option = float(core.skin())
+    if shape is None:
+        x = core.positions()
+        extent = x.max(axis=0) - x.min(axis=0) if len(x) else np.ones(3)
+        shape = grid_shape(comm.Get_size(), extent)
+    shape = tuple(_checks.whole(f"shape[{d}]", s, minimum=1) for d, s in enumerate(shape))
+    if len(shape) != 3 or int(np.prod(shape)) != comm.Get_size():
+        raise ValueError(f"shape must be 3 whole numbers whose product is the number of ranks "
+                         f"({comm.Get_size()}), got {shape!r}")
+    if margin is None:
+        r = core.radii()
+        margin = 2.0 * float(r.max()) if len(r) else 0.0
+    else:
+        margin = _checks.positive("margin", margin)
+    return Decomposed(simulation, comm, shape, margin)
