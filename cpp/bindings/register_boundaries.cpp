@@ -132,7 +132,27 @@ void register_boundaries(py::class_<Sim>& cls) {
             });
           },
           "exchange"_a)
-      .def_property_readonly("_has_exchange", &Sim::has_exchange);
+      .def_property_readonly("_has_exchange", &Sim::has_exchange)
+      .def(
+          "_set_removed",
+          [](Sim& s, const Ids& id, const IntArray& outlet, const Ids& step, const Array& time,
+             const Array& x, const Array& v) {
+            const std::size_t n = count_of(id);
+            check_n3(x, n, "position");
+            check_n3(v, n, "velocity");
+            if (static_cast<std::size_t>(outlet.size()) != n || static_cast<std::size_t>(step.size()) != n ||
+                static_cast<std::size_t>(time.size()) != n)
+              throw py::value_error("the removal log's arrays must have one row per id");
+            tsubu::RemovalLog log;
+            log.id.assign(id.data(), id.data() + n);
+            log.outlet.assign(outlet.data(), outlet.data() + n);
+            log.step.assign(step.data(), step.data() + n);
+            log.time.assign(time.data(), time.data() + n);
+            log.position.assign(x.data(), x.data() + 3 * n);
+            log.velocity.assign(v.data(), v.data() + 3 * n);
+            s.set_removed(std::move(log));
+          },
+          "id"_a, "outlet"_a, "step"_a, "time"_a, "position"_a, "velocity"_a);
 }
 
 }  // namespace tsubu_py

@@ -87,10 +87,17 @@ class Decomposed:
         margin / 2 since the last time.
     redistributions : int
         How many times spheres were moved between ranks.
+    imbalance : float or None
+        A redistribution also moves the cuts (:meth:`balance`) when the busiest rank owns more
+        than this many times the mean; None: only when asked.
+    balances : int
+        How many times the cuts were moved.
     """
 
-    def __init__(self, simulation, comm, shape, margin):
+    def __init__(self, simulation, comm, shape, margin, imbalance):
         self.simulation = simulation
+        self.imbalance = imbalance
+        self.balances = 0
         self.comm = comm
         self.shape = tuple(int(s) for s in shape)
         self.margin = float(margin)
@@ -105,8 +112,11 @@ class Decomposed:
         self._moved = 0.0
         self._due = False
         self.cuts = self._balanced_cuts(core.positions(), core.get_ids(), everywhere=True)
-        self._removed_seen = 0
-        self._removed = []
+        # The removal log: what was removed before (every rank has it: rank 0 tells it), then
+        # each rank's own spheres' removals.
+        before = core.removed()
+        self._removed_seen = len(before["id"])
+        self._removed = [dict(before)] if self._rank == 0 and self._removed_seen else []
         # Every rank holds the whole scene now: keep what is this rank's.
         ids, x = core.get_ids(), core.positions()
         owner = self.owner_of(x)
@@ -157,6 +167,11 @@ class Decomposed:
         lo, hi = self._box_of(rank)
         gap = np.maximum(np.maximum(lo - x, x - hi), 0.0)
         return (owner == rank) | (np.sqrt(np.sum(gap * gap, axis=1)) <= self.reach)
+
+    @property
+    def owned(self) -> np.ndarray:
+        """The ids of this rank's own spheres, sorted."""
+        return self._owned[np.isin(self._owned, self._core.get_ids(), assume_unique=True)]
 
     def _set_lists(self, ids, x, owner):
         """This rank's own spheres, and who sends what to whom each step (ids sorted on both
@@ -238,8 +253,11 @@ class Decomposed:
         ids = core.get_ids()
         x = core.positions()
         self._harvest_removed(ids)
-        if balance:
+        counts = self.comm.allgather(int(np.count_nonzero(np.isin(self._owned, ids, assume_unique=True))))
+        mean = sum(counts) / len(counts)
+        if balance or (self.imbalance is not None and max(counts) > self.imbalance * max(mean, 1.0)):
             self.cuts = self._balanced_cuts(x, ids)
+            self.balances += 1
         owner = self.owner_of(x)
         own = np.isin(ids, self._owned, assume_unique=True)
         v, w = core.velocities(), core.angular_velocities()
@@ -284,6 +302,8 @@ class Decomposed:
             back = np.isin(fixed_ids, got["ids"][a])
             if back.any():
                 core.fix_spheres(fixed_ids[back], fv[back], fw[back])
+        # A copy books the energy its partial sums dissipate: every sphere takes its owner's.
+        core.set_dissipated(got["dissipated"])
         # Contacts: this rank's own kept, the others' for the pairs it did not hold.
         have_p, have_w = core.contact_state(False), core.contact_state(True)
         merged_p = _merge([have_p] + [m["pairs"] for m in incoming], walls=False)
@@ -341,6 +361,7 @@ class Decomposed:
             "material": core.materials()[own], "dissipated": core.dissipated()[own],
             "pairs": _rows(pairs, mine_p), "walls": _rows(walls, mine_w),
         }
+        log = self.removed()
         parts = comm.gather(part, root=root)
         if comm.Get_rank() != root:
             return None
@@ -360,6 +381,7 @@ class Decomposed:
             wc.fix_spheres(fixed_ids[back], fv[back], fw[back])
         wc.set_contact_state(_merge([p["pairs"] for p in parts], walls=False),
                              _merge([p["walls"] for p in parts], walls=True))
+        wc._set_removed(*(log[k] for k in ("id", "outlet", "step", "time", "position", "velocity")))
         return whole
 
 
@@ -398,7 +420,8 @@ def _merge(states: list, walls: bool) -> dict:
     return out
 
 
-def decompose(simulation, comm=None, shape=None, margin: float | None = None) -> Decomposed:
+def decompose(simulation, comm=None, shape=None, margin: float | None = None,
+              imbalance: float | None = 1.2) -> Decomposed:
     """Cut a scene over MPI ranks (a collective call: every rank calls it with the same scene).
 
     Parameters
@@ -414,6 +437,9 @@ def decompose(simulation, comm=None, shape=None, margin: float | None = None) ->
     margin : float, optional
         m, > 0: how much further than the contacts' reach the halo holds spheres (default: the
         largest diameter). A larger margin redistributes less often and holds more copies.
+    imbalance : float or None, default 1.2
+        Move the cuts at a redistribution when the busiest rank owns more than this many times
+        the mean number of spheres (> 1); None: only on :meth:`Decomposed.balance`.
 
     Returns
     -------
@@ -470,4 +496,8 @@ def decompose(simulation, comm=None, shape=None, margin: float | None = None) ->
         margin = 2.0 * float(r.max()) if len(r) else 0.0
     else:
         margin = _checks.positive("margin", margin)
-    return Decomposed(simulation, comm, shape, margin)
+    if imbalance is not None:
+        imbalance = _checks.positive("imbalance", imbalance)
+        if imbalance <= 1:
+            raise ValueError(f"imbalance must be > 1 (or None), got {imbalance!r}")
+    return Decomposed(simulation, comm, shape, margin, imbalance)

@@ -214,6 +214,8 @@ class Simulation : private detail::RunHooks {
   const std::vector<Outlet>& outlets() const { return outlets_; }
   // Every sphere removed so far, by an outlet or by remove_spheres.
   const RemovalLog& removed() const { return removed_; }
+  // Replaces the log (a decomposed scene gathered into one: the log of every rank's own).
+  void set_removed(RemovalLog log) { removed_ = std::move(log); }
 
   // ---- time stepping -----------------------------------------------------------------------
   // The stability bound of symplectic Euler, (2.31) with spring and dashpot taken together:

@@ -1,0 +1,77 @@
+"""The scene the MPI tests cut over ranks (tests/test_parallel.py runs this file under mpiexec).
+
+A frictional Hertz-Mindlin pack in a box of planes with a tessellated mesh floor, tilted gravity
+pushing it out of its open side into an outlet, a few glued spheres and one driven sphere: every
+kind of state a rank's halo must carry (pair and wall contact history, mesh contacts, fixed
+spheres, removals).
+
+    python scene.py reference STEPS OUT.npz          one process, no MPI
+    mpiexec -n R python scene.py decomposed STEPS OUT.npz [--save PATH] [--load PATH]
+"""
+import sys
+
+import numpy as np
+
+import tsubu
+import tsubu.mesh
+
+
+def build(n=500, seed=3):
+    sim = tsubu.Simulation(gravity=(3.0, 0.0, -9.81), threads=1)
+    m = tsubu.Material(density=2500.0, youngs_modulus=5e6, poisson_ratio=0.3, restitution=0.4,
+                       friction=0.4)
+    rng = np.random.default_rng(seed)
+    side = 8
+    g = np.stack(np.meshgrid(np.arange(side), np.arange(side), np.arange(n // 64 + 1), indexing="ij"),
+                 -1).reshape(-1, 3)[:n]
+    x = 0.0026 * g + np.array([0.0015, 0.0015, 0.0015]) + rng.uniform(-1e-4, 1e-4, (n, 3))
+    r = rng.uniform(0.0009, 0.0011, n)
+    sim.add_spheres(x, r, m, velocities=rng.normal(0.0, 0.05, (n, 3)))
+    v, f = tsubu.mesh.square(center=(0.03, 0.01, 0.0), size=0.06, normal=(0, 0, 1), divisions=6,
+                             jitter=0.2, seed=5)
+    sim.add_mesh(v, f, m)
+    sim.add_plane(point=(0, 0, 0), normal=(1, 0, 0), material=m)
+    sim.add_plane(point=(0, 0, 0), normal=(0, 1, 0), material=m)
+    sim.add_plane(point=(0, 0.024, 0), normal=(0, -1, 0), material=m)
+    sim.add_outlet(point=(0.025, 0, 0), normal=(-1, 0, 0))
+    sim.fix_spheres([0, 1, 2])
+    sim.fix_spheres([9], velocity=(0.01, 0.0, 0.0))
+    return sim
+
+
+def record(sim, path):
+    c = sim.contacts()
+    gone = sim.removed()
+    np.savez(path, removed_id=gone["id"], removed_step=gone["step"], removed_x=gone["position"], ids=sim.ids, x=sim.positions, v=sim.velocities, w=sim.angular_velocities,
+             forces=sim.forces, dissipated=sim._core.dissipated(), step=sim.step_count,
+             ci=c["i"], cj=c["j"], cwall=c["wall"], cxi=c["tangential_displacement"], cf=c["force"])
+
+
+def main(argv):
+    mode, steps, out = argv[0], int(argv[1]), argv[2]
+    rest = argv[3:]
+    save = rest[rest.index("--save") + 1] if "--save" in rest else None
+    load = rest[rest.index("--load") + 1] if "--load" in rest else None
+    sim = tsubu.Simulation.load(load) if load else build()
+    if mode == "reference":
+        sim.run(steps)
+        record(sim, out)
+        return
+    from mpi4py import MPI
+
+    from tsubu import parallel
+
+    d = parallel.decompose(sim)
+    d.run(steps)
+    whole = d.gather()
+    sizes = MPI.COMM_WORLD.gather(len(d.owned))
+    if whole is not None:
+        assert sum(sizes) == whole.size, (sizes, whole.size)
+        record(whole, out)
+        if save:
+            whole.save(save)
+        print("redistributions", d.redistributions, "balances", d.balances, "owned", sizes)
+
+
+if __name__ == "__main__":
+    main(sys.argv[1:])

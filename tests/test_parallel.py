@@ -1,0 +1,87 @@
+"""A scene cut over MPI ranks (tsubu.parallel, docs/parallel.md) gives the same bits as one
+process: positions, velocities, spins, forces, every contact's history and force, each sphere's
+dissipated energy and the outlets' log, on 1 to 4 ranks (more ranks than this machine's cores:
+oversubscribed), and through a checkpoint written on 3 ranks and resumed on 2 and on 1.
+
+The scene (tests/mpi/scene.py) is a frictional Hertz-Mindlin pack on an irregular mesh floor in
+a box of planes, pushed by tilted gravity out of its open side into an outlet, with glued and
+driven spheres: every kind of state a rank's halo carries.
+"""
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+pytest.importorskip("mpi4py", reason='the MPI tests need mpi4py: pip install "tsubu[mpi]"')
+
+from tsubu import parallel  # noqa: E402
+
+SCENE = Path(__file__).parent / "mpi" / "scene.py"
+MPIEXEC = Path(sys.executable).parent / "mpiexec"
+needs_mpiexec = pytest.mark.skipif(not MPIEXEC.exists(), reason=f"no {MPIEXEC} (the mpich wheel)")
+
+STEPS = 12_000  # long enough for ~20 redistributions, cuts moved and spheres leaving
+
+
+def _run(args, ranks=None, timeout=600):
+    cmd = [sys.executable, str(SCENE), *map(str, args)]
+    if ranks is not None:
+        cmd = [str(MPIEXEC), "-n", str(ranks), *cmd]
+    done = subprocess.run(cmd, capture_output=True, text=True, timeout=timeout)
+    assert done.returncode == 0, done.stdout + done.stderr
+    return done.stdout
+
+
+def _same(a_path, b_path):
+    a, b = np.load(a_path), np.load(b_path)
+    assert a.files == b.files
+    differ = [k for k in a.files if not np.array_equal(a[k], b[k])]
+    assert not differ, f"differ from one process: {differ}"
+    return a
+
+
+@pytest.fixture(scope="module")
+def reference(tmp_path_factory):
+    out = tmp_path_factory.mktemp("mpi") / "one.npz"
+    _run(["reference", STEPS, out])
+    ref = np.load(out)
+    # The scene does what it is for: spheres leave through the outlet, contacts touch walls.
+    assert len(ref["removed_id"]) > 0 and (ref["cwall"] >= 0).any() and (ref["cj"] >= 0).any()
+    return out
+
+
+@needs_mpiexec
+@pytest.mark.parametrize("ranks", [1, 2, 3, 4])
+def test_any_number_of_ranks_gives_the_bits_of_one_process(reference, tmp_path, ranks):
+    out = tmp_path / f"ranks{ranks}.npz"
+    said = _run(["decomposed", STEPS, out], ranks=ranks)
+    _same(reference, out)
+    if ranks > 1:  # spheres moved between ranks, and every rank owned some at the end
+        words = said.split()
+        assert int(words[words.index("redistributions") + 1]) > 0
+        owned = said[said.index("owned") + 5:].strip().strip("[]").split(",")
+        assert all(int(k) > 0 for k in owned), said
+
+
+@needs_mpiexec
+def test_a_checkpoint_written_on_three_ranks_resumes_on_two_and_on_one(reference, tmp_path):
+    half = STEPS // 2
+    saved = tmp_path / "three.tsubu"
+    _run(["decomposed", half, tmp_path / "three.npz", "--save", saved], ranks=3)
+    _run(["decomposed", STEPS - half, tmp_path / "two.npz", "--load", saved], ranks=2)
+    _same(reference, tmp_path / "two.npz")
+    _run(["reference", STEPS - half, tmp_path / "one.npz", "--load", saved])
+    _same(reference, tmp_path / "one.npz")
+
+
+def test_grid_shape_cuts_the_longest_extent_first():
+    assert parallel.grid_shape(1, (1, 1, 1)) == (1, 1, 1)
+    assert parallel.grid_shape(2, (1, 1, 3)) == (1, 1, 2)
+    assert parallel.grid_shape(4, (4, 1, 1)) == (4, 1, 1)
+    assert parallel.grid_shape(4, (2, 2, 1)) == (2, 2, 1)
+    assert parallel.grid_shape(8, (1, 1, 1)) == (2, 2, 2)
+    assert np.prod(parallel.grid_shape(12, (3, 2, 1))) == 12
+    with pytest.raises(ValueError, match="ranks"):
+        parallel.grid_shape(0, (1, 1, 1))
