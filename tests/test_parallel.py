@@ -52,6 +52,7 @@ def reference(tmp_path_factory):
     return out
 
 
+@pytest.mark.slow
 @needs_mpiexec
 @pytest.mark.parametrize("ranks", [1, 2, 3, 4])
 def test_any_number_of_ranks_gives_the_bits_of_one_process(reference, tmp_path, ranks):
@@ -65,6 +66,7 @@ def test_any_number_of_ranks_gives_the_bits_of_one_process(reference, tmp_path, 
         assert all(int(k) > 0 for k in owned), said
 
 
+@pytest.mark.slow
 @needs_mpiexec
 def test_a_checkpoint_written_on_three_ranks_resumes_on_two_and_on_one(reference, tmp_path):
     half = STEPS // 2
@@ -85,3 +87,44 @@ def test_grid_shape_cuts_the_longest_extent_first():
     assert np.prod(parallel.grid_shape(12, (3, 2, 1))) == 12
     with pytest.raises(ValueError, match="ranks"):
         parallel.grid_shape(0, (1, 1, 1))
+
+
+@pytest.mark.slow
+@needs_mpiexec
+def test_ranks_that_built_different_scenes_are_refused(tmp_path):
+    said = _run(["differ", 0, tmp_path / "x.npz"], ranks=2)
+    assert said.count("the scene differs between ranks") == 2, said  # (the ranks print interleaved)
+
+
+# (slow: these start MPI in the test's own process, which the sanitizer run leaves out)
+@pytest.mark.slow
+@pytest.mark.parametrize("change, message", [
+    (lambda s: s.set_box((0, 0, -1), (0.03, 0.03, 1), periodic="x"), "periodic boxes"),
+    (lambda s: s.set_wall_servo(1, force=1.0, max_speed=0.1), "servo wall"),
+])
+def test_what_is_not_cut_over_ranks_yet_is_refused(change, message):
+    from mpi4py import MPI
+    sys.path.insert(0, str(SCENE.parent))
+    import scene
+
+    sim = scene.build()
+    change(sim)
+    with pytest.raises(ValueError, match=message):
+        parallel.decompose(sim, comm=MPI.COMM_SELF)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("kwargs, message", [
+    ({"shape": (1, 2, 1)}, "product is the number of ranks"),
+    ({"shape": (1, 1)}, "shape"),
+    ({"margin": 0.0}, "margin"),
+    ({"margin": float("nan")}, "margin"),
+    ({"imbalance": 1.0}, "imbalance"),
+])
+def test_bad_arguments_are_refused_naming_them(kwargs, message):
+    from mpi4py import MPI
+    sys.path.insert(0, str(SCENE.parent))
+    import scene
+
+    with pytest.raises(ValueError, match=message):
+        parallel.decompose(scene.build(), comm=MPI.COMM_SELF, **kwargs)

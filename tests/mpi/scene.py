@@ -52,6 +52,16 @@ def main(argv):
     rest = argv[3:]
     save = rest[rest.index("--save") + 1] if "--save" in rest else None
     load = rest[rest.index("--load") + 1] if "--load" in rest else None
+    if mode == "differ":  # each rank a scene of its own: decompose must refuse it
+        from mpi4py import MPI
+
+        from tsubu import parallel
+
+        try:
+            parallel.decompose(build(seed=MPI.COMM_WORLD.Get_rank()))
+        except ValueError as e:
+            print("refused:", e)
+        return
     sim = tsubu.Simulation.load(load) if load else build()
     if mode == "reference":
         sim.run(steps)
