@@ -128,3 +128,30 @@ def test_bad_arguments_are_refused_naming_them(kwargs, message):
 
     with pytest.raises(ValueError, match=message):
         parallel.decompose(scene.build(), comm=MPI.COMM_SELF, **kwargs)
+
+
+@pytest.mark.slow
+@needs_mpiexec
+def test_tsubu_run_over_ranks_writes_the_files_of_one_process(tmp_path):
+    # The column-collapse scene (a gate the schedule removes, output every 0.02 s and npz
+    # dumps), shortened: `mpiexec -n 3 tsubu run` writes the same files, byte for byte.
+    examples = Path(__file__).parents[1] / "examples" / "scenes"
+    text = (examples / "column_collapse.toml").read_text()
+    text = text.replace("duration = 0.8 ", "duration = 0.045")
+    assert "duration = 0.045" in text
+    (tmp_path / "scene.toml").write_text(text)
+    (tmp_path / "column_collapse_start.npz").write_bytes((examples / "column_collapse_start.npz").read_bytes())
+    outputs = {}
+    for ranks in (None, 3):
+        out = tmp_path / f"out{ranks}"
+        cmd = [sys.executable, "-m", "tsubu", "run", str(tmp_path / "scene.toml"), "--output", str(out),
+               "--no-progress"]
+        if ranks:
+            cmd = [str(MPIEXEC), "-n", str(ranks), *cmd]
+        done = subprocess.run(cmd, capture_output=True, text=True, timeout=600)
+        assert done.returncode == 0, done.stdout + done.stderr
+        assert done.stdout.count("tsubu run") == 1, done.stdout  # (rank 0 reports)
+        outputs[ranks] = {p.name: p.read_bytes() for p in sorted(out.iterdir())}
+    assert len(outputs[None]) > 10 and outputs[None].keys() == outputs[3].keys()
+    differ = [name for name in outputs[None] if outputs[None][name] != outputs[3][name]]
+    assert not differ

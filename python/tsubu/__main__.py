@@ -124,10 +124,16 @@ def _execute(scene, source: str, what: str, until: float | None, progress: bool 
         print(f"tsubu: error: {source}: {when}: {_one_line(e)}", file=sys.stderr)
         return 2
     wall = time.perf_counter() - start
+    from .parallel import launched_rank, launched_ranks
+    if launched_rank() != 0:
+        return 0  # (rank 0 reports a run over MPI ranks)
+    sim = scene.simulation  # (after a run over ranks, rank 0's is the whole scene gathered)
+    ranks = launched_ranks()
     steps = sim.step_count - steps_before
     rate = sim.size * steps / max(wall, 1e-9)
     print(f"tsubu {what} {source}: {sim.size} spheres, t = {sim.time:.6g} s (step {sim.step_count}), "
-          f"{steps} steps in {wall:.2f} s ({rate / 1e6:.2f} M particle-steps/s)")
+          f"{steps} steps in {wall:.2f} s ({rate / 1e6:.2f} M particle-steps/s"
+          + (f" on {ranks} MPI ranks)" if ranks > 1 else ")"))
     if scene.output or scene.checkpoint is not None:
         print(f"  output in {scene.output_directory}")
     return 0

@@ -28,7 +28,7 @@ import numpy as np
 
 from . import _checks
 
-__all__ = ["decompose", "Decomposed"]
+__all__ = ["decompose", "Decomposed", "grid_shape", "launched_ranks", "launched_rank"]
 
 _TAG_HALO = 0x7575
 
@@ -225,24 +225,140 @@ class Decomposed:
             core.request_stop()
         return v2
 
-    def run(self, steps: int) -> "Decomposed":
-        """Advance every rank by ``steps`` steps (a collective call: every rank calls it with
-        the same ``steps``). The state after it is the same, bit for bit, as one process's."""
-        steps = _checks.whole("steps", steps)
-        core = self._core
+    def run(self, steps: int | None = None, time: float | None = None, *, output=None,
+            checkpoint=None, checkpoint_every: int | None = None,
+            checkpoint_keep: int = 3) -> "Decomposed":
+        """Advance every rank by ``steps`` steps or ``time`` seconds (a collective call: every
+        rank calls it with the same arguments). The state after it is the same, bit for bit, as
+        one process's after the same run.
+
+        Parameters
+        ----------
+        steps, time : int or float
+            As :meth:`tsubu.Simulation.run`: exactly one of them.
+        output : hook or list of hooks, optional
+            Run hooks (:mod:`tsubu.hooks`), such as :class:`tsubu.output.VTKOutput`. A hook
+            with a true attribute ``acts_on_every_rank`` (a scene file's wall schedule) acts on
+            every rank's part; any other acts on rank 0 only, on the whole scene gathered there
+            (:meth:`gather`) at the steps it asks for.
+        checkpoint, checkpoint_every, checkpoint_keep
+            As :meth:`tsubu.Simulation.run`: rank 0 saves the gathered scene, a checkpoint that
+            loads in one process or on any number of ranks.
+
+        An error on one rank (an unstable run, a hook that raises) is printed there and ends
+        every rank (``MPI_Abort``, exit status 1), as LAMMPS's errors do: the others would wait
+        for it forever.
+        """
+        from . import hooks as _hooks
+
+        core, comm = self._core, self.comm
+        if (steps is None) == (time is None):
+            raise TypeError("run needs exactly one of steps= or time=")
         self._dt = float(core.time_step())
-        left = steps
+        if time is not None:
+            from .simulation import _steps_for
+            steps = _steps_for(_checks.positive("time", time, allow_zero=True), self._dt)
+        steps = _checks.whole("steps", steps)
+        outputs = [] if output is None else list(output) if isinstance(output, (list, tuple)) else [output]
+        for k, hook in enumerate(outputs):
+            _hooks.check_hook(hook, "output" if len(outputs) == 1 else f"output[{k}]")
+        periodic = []
+        if checkpoint_every is not None:
+            if checkpoint is None:
+                raise ValueError("checkpoint_every needs checkpoint= (the path beside which the "
+                                 "numbered checkpoints are written)")
+            periodic = [_hooks.PeriodicCheckpoint(_checks.path("checkpoint", checkpoint),
+                                                  _checks.whole("checkpoint_every", checkpoint_every, minimum=1),
+                                                  _checks.whole("checkpoint_keep", checkpoint_keep, minimum=1))]
+        everywhere = [h for h in outputs if getattr(h, "acts_on_every_rank", False)]
+        observers = [h for h in outputs if h not in everywhere] + periodic
+        root = self._rank == 0
+        end = core.step_count + steps
+        whole = None
         core._set_exchange(self._exchange)
         try:
-            while left > 0:
-                taken = core.run(left, False)
-                left -= taken
-                if self._due:
-                    self._due = False
-                    self.redistribute()
+            try:
+                while True:
+                    now = core.step_count
+                    target = end
+                    for hook in everywhere:
+                        due = _hooks.due_step(hook, self.simulation)
+                        if due is not None and due <= now:
+                            hook.act(self.simulation)
+                            due = _hooks.due_step(hook, self.simulation)
+                        if due is not None and due < target:
+                            target = due
+                    # The observers' answers are rank 0's (they act there only).
+                    acting = False
+                    if root and observers:
+                        for hook in observers:
+                            due = _hooks.due_step(hook, self.simulation)
+                            acting |= due is not None and due <= now
+                    if observers:
+                        acting = comm.bcast(acting, root=0)
+                    if acting:
+                        whole = self.gather()
+                        if root:
+                            for hook in observers:
+                                due = _hooks.due_step(hook, whole)
+                                if due is not None and due <= now:
+                                    hook.act(whole)
+                    if root and observers:
+                        for hook in observers:
+                            due = _hooks.due_step(hook, self.simulation)
+                            if due is not None and due <= now:
+                                raise RuntimeError(f"run hook {hook!r} acted at step {now} and asks for "
+                                                   f"step {due} again: next_step must move on after act")
+                            if due is not None and due < target:
+                                target = due
+                    if observers:
+                        target = comm.bcast(target, root=0)
+                    if now >= end:
+                        break
+                    self._advance(target - now)
+            finally:
+                if root:
+                    for hook in observers:
+                        hook.close(whole if whole is not None else self.simulation)
+                for hook in everywhere:
+                    hook.close(self.simulation)
+        except Exception as e:  # noqa: BLE001 - every error ends every rank
+            if self._size == 1:
+                raise
+            import sys
+            import traceback
+            print(f"tsubu: rank {self._rank} of {self._size}: error at step {core.step_count}: "
+                  f"{type(e).__name__}: {e}", file=sys.stderr)
+            traceback.print_exc(file=sys.stderr)
+            sys.stderr.flush()
+            comm.Abort(1)
         finally:
             core._set_exchange(None)
+        if checkpoint is not None:
+            whole = self.gather()
+            if root:
+                whole.save(checkpoint, metadata=getattr(self.simulation, "metadata", None))
         return self
+
+    def _advance(self, steps: int) -> None:
+        """``steps`` steps, stopping for redistributions on the way."""
+        core = self._core
+        left = steps
+        while left > 0:
+            try:
+                taken = core.run(left, False)
+            except Exception as e:
+                from .simulation import InstabilityError, _core
+                if isinstance(e, _core.InstabilityError):
+                    message, step, particle = e.args
+                    raise InstabilityError(message, step, particle) from None
+                raise
+            left -= taken
+            if self._due:
+                self._due = False
+                core._set_exchange(None)
+                self.redistribute()
+                core._set_exchange(self._exchange)
 
     # ---- moving spheres between ranks -----------------------------------------------------------
     def redistribute(self, balance: bool = False) -> None:
@@ -383,6 +499,30 @@ class Decomposed:
                              _merge([p["walls"] for p in parts], walls=True))
         wc._set_removed(*(log[k] for k in ("id", "outlet", "step", "time", "position", "velocity")))
         return whole
+
+
+def launched_ranks() -> int:
+    """How many ranks ``mpiexec`` started this process among (MPICH's and Intel MPI's
+    ``PMI_SIZE``, Open MPI's ``OMPI_COMM_WORLD_SIZE``), read from the environment without
+    starting MPI; 1 when it was not started by mpiexec."""
+    import os
+
+    for name in ("OMPI_COMM_WORLD_SIZE", "PMI_SIZE", "PMIX_SIZE"):
+        value = os.environ.get(name)
+        if value and value.isdigit():
+            return int(value)
+    return 1
+
+
+def launched_rank() -> int:
+    """This process's rank among those ``mpiexec`` started (0 when it was not)."""
+    import os
+
+    for name in ("OMPI_COMM_WORLD_RANK", "PMI_RANK", "PMIX_RANK"):
+        value = os.environ.get(name)
+        if value and value.isdigit():
+            return int(value)
+    return 0
 
 
 def _rows(state: dict, mask) -> dict:

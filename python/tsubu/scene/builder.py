@@ -307,6 +307,9 @@ class WallSchedule:
         ``resumed``, > ``after`` (a checkpoint of step ``after`` holds the changes made there).
     """
 
+    # Over MPI ranks (tsubu.parallel), every rank's part of the scene takes the changes.
+    acts_on_every_rank = True
+
     def __init__(self, changes: list, after: int = 0, resumed: bool = False):
         self.changes = [c for c in changes if c[0] > after or (c[0] == after and not resumed)]
         self.position = 0
@@ -425,6 +428,9 @@ class Scene:
             _attach_metadata(sim, self.metadata())  # for the run's periodic checkpoints
             kwargs.update(checkpoint=self.checkpoint["path"], checkpoint_every=self.checkpoint["every"],
                           checkpoint_keep=self.checkpoint["keep"])
+        from .. import parallel
+        if parallel.launched_ranks() > 1:
+            return self._run_decomposed(remaining, kwargs)
         try:
             sim.run(time=remaining, **kwargs)
         except KeyboardInterrupt:
@@ -432,6 +438,23 @@ class Scene:
             raise
         self._save()
         return sim
+
+    def _run_decomposed(self, remaining: float, kwargs: dict) -> Simulation:
+        """The run under ``mpiexec`` (docs/parallel.md): the scene cut over the ranks, the wall
+        schedule acting on every rank, output and checkpoints written by rank 0 from the whole
+        scene gathered there. Afterwards rank 0's :attr:`simulation` is the whole scene (the
+        others' hold their parts)."""
+        from .. import parallel
+        kwargs = dict(kwargs)
+        kwargs.pop("progress", None)  # (no bar: the ranks would each draw one)
+        kwargs.pop("checkpoint", None)  # (the final one is _save's)
+        part = parallel.decompose(self.simulation)
+        part.run(time=remaining, **kwargs)
+        whole = part.gather()
+        if whole is not None:
+            self.simulation = whole
+            self._save()
+        return self.simulation
 
     def _save(self) -> None:
         """The checkpoint of the run's end (or of a Ctrl-C), with the scene in its metadata (over
