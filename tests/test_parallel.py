@@ -85,6 +85,10 @@ def test_grid_shape_cuts_the_longest_extent_first():
     assert parallel.grid_shape(4, (2, 2, 1)) == (2, 2, 1)
     assert parallel.grid_shape(8, (1, 1, 1)) == (2, 2, 2)
     assert np.prod(parallel.grid_shape(12, (3, 2, 1))) == 12
+    assert parallel.grid_shape(4, (1, 1, 8), uncut=2) == (2, 2, 1)  # (a column under gravity)
+    assert parallel.grid_shape(3, (1, 2, 8), uncut=2) == (1, 3, 1)
+    with pytest.raises(ValueError, match="uncut"):
+        parallel.grid_shape(2, (1, 1, 1), uncut=3)
     with pytest.raises(ValueError, match="ranks"):
         parallel.grid_shape(0, (1, 1, 1))
 

@@ -94,7 +94,7 @@ void register_boundaries(py::class_<Sim>& cls) {
   cls.def(
          "_insert_spheres",
          [](Sim& s, const Ids& ids, const Array& x, const Array& r, const IntArray& m, const Array& v,
-            const Array& w, const Array& dissipated) {
+            const Array& w, const Array& dissipated, bool carry) {
            const std::size_t n = count_of(ids);
            check_n3(x, n, "positions");
            check_n3(v, n, "velocities");
@@ -102,11 +102,15 @@ void register_boundaries(py::class_<Sim>& cls) {
            if (static_cast<std::size_t>(r.size()) != n || static_cast<std::size_t>(m.size()) != n ||
                static_cast<std::size_t>(dissipated.size()) != n)
              throw py::value_error("radii, materials and dissipated must have one value per id");
-           s.insert_spheres(n, ids.data(), x.data(), r.data(), m.data(), v.data(), w.data(), dissipated.data());
+           s.insert_spheres(n, ids.data(), x.data(), r.data(), m.data(), v.data(), w.data(), dissipated.data(),
+                            carry);
          },
          "ids"_a, "positions"_a, "radii"_a, "materials"_a, "velocities"_a, "angular_velocities"_a,
-         "dissipated"_a)
-      .def("_drop_spheres", [](Sim& s, const Ids& ids) { s.drop_spheres(count_of(ids), ids.data()); }, "ids"_a)
+         "dissipated"_a, "carry"_a = true)
+      .def(
+          "_drop_spheres",
+          [](Sim& s, const Ids& ids, bool carry) { s.drop_spheres(count_of(ids), ids.data(), carry); },
+          "ids"_a, "carry"_a = true)
       .def("_pack_state",
            [](const Sim& s, const Ids& ids, py::array_t<double, py::array::c_style> out) {
              if (static_cast<std::size_t>(out.size()) < 9 * count_of(ids))

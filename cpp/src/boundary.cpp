@@ -24,7 +24,7 @@ std::string too_fast(double speed) {
 
 }  // namespace
 
-void Simulation::remove_now(std::size_t count, const Id* ids, const int* outlet, bool log) {
+void Simulation::remove_now(std::size_t count, const Id* ids, const int* outlet, bool log, bool keep) {
   std::vector<char> gone(particles_.id_bound(), 0);
   for (std::size_t k = 0; k < count; ++k) gone[static_cast<std::size_t>(ids[k])] = 1;
   if (log) {  // the log, by increasing id within a step
@@ -63,7 +63,7 @@ void Simulation::remove_now(std::size_t count, const Id* ids, const int* outlet,
   }
   // The contacts that stay are carried by ids, as a checkpoint carries them (the lists refer to
   // internal indices, which the removal changes; and between runs the law may change).
-  const bool carry = law_ != nullptr && lists_.built(particles_.size());
+  const bool carry = keep && law_ != nullptr && lists_.built(particles_.size());
   ContactState pairs, walls;
   if (carry) {
     auto drop = [&](ContactState& c, bool wall) {

@@ -16,7 +16,7 @@ using detail::require;
 
 void Simulation::insert_spheres(std::size_t n, const Id* ids, const double* positions, const double* radii,
                                 const int* materials, const double* velocities,
-                                const double* angular_velocities, const double* dissipated) {
+                                const double* angular_velocities, const double* dissipated, bool keep) {
   if (running()) throw std::logic_error("tsubu: Simulation::insert_spheres during a run");
   std::vector<char> seen;
   for (std::size_t k = 0; k < n; ++k) {
@@ -38,7 +38,7 @@ void Simulation::insert_spheres(std::size_t n, const Id* ids, const double* posi
   }
   if (n == 0) return;
   // The contacts kept are carried by ids through the insertion (it changes internal indices).
-  const bool carry = law_ != nullptr && lists_.built(particles_.size());
+  const bool carry = keep && law_ != nullptr && lists_.built(particles_.size());
   ContactState pairs, walls;
   if (carry) {
     pairs = contact_state(false);
@@ -57,7 +57,7 @@ void Simulation::insert_spheres(std::size_t n, const Id* ids, const double* posi
   if (carry) set_contact_state(pairs, walls);
 }
 
-void Simulation::drop_spheres(std::size_t count, const Id* ids) {
+void Simulation::drop_spheres(std::size_t count, const Id* ids, bool carry) {
   if (running()) throw std::logic_error("tsubu: Simulation::drop_spheres during a run");
   std::vector<char> gone(particles_.id_bound(), 0);
   for (std::size_t k = 0; k < count; ++k) {
@@ -67,7 +67,7 @@ void Simulation::drop_spheres(std::size_t count, const Id* ids) {
     gone[static_cast<std::size_t>(ids[k])] = 1;
   }
   if (count == 0) return;
-  remove_now(count, ids, nullptr, false);
+  remove_now(count, ids, nullptr, false, carry);
 }
 
 std::size_t Simulation::pack_state(std::size_t n, const Id* ids, double* out) const {

@@ -41,27 +41,31 @@ def _mpi():
     return MPI
 
 
-def grid_shape(ranks: int, extent) -> tuple[int, int, int]:
-    """The grid (nx, ny, nz) of ``ranks`` boxes that cuts a region of lengths ``extent`` into
-    the most cube-like boxes: of all factorisations nx ny nz = ranks, the one with the least
-    cut area per box (ties go to the first axes)."""
+def grid_shape(ranks: int, extent, uncut: int | None = None) -> tuple[int, int, int]:
+    """The grid (nx, ny, nz) of ``ranks`` boxes that cuts a region of lengths ``extent`` (m,
+    3 values) into the most cube-like boxes: of all factorisations nx ny nz = ranks, the one
+    with the least area between boxes (ties: the most cube-like boxes, then the first axes).
+    ``uncut``: an axis (0, 1, 2) not to cut (its count 1), or None."""
     ranks = _checks.whole("ranks", ranks, minimum=1)
-    L = np.maximum(np.asarray(extent, dtype=float), 1e-300)
-    best, shape = math.inf, (ranks, 1, 1)
+    L = np.maximum(np.asarray(extent, dtype=float).reshape(3), 1e-300)
+    if uncut is not None and uncut not in (0, 1, 2):
+        raise ValueError(f"uncut must be an axis 0, 1 or 2 (or None), got {uncut!r}")
+    best, shape = None, None
     for nx in range(1, ranks + 1):
         if ranks % nx:
             continue
         for ny in range(1, ranks // nx + 1):
             if (ranks // nx) % ny:
                 continue
-            nz = ranks // nx // ny
-            n = np.array([nx, ny, nz], dtype=float)
+            n = np.array([nx, ny, ranks // nx // ny], dtype=float)
+            if uncut is not None and n[uncut] != 1:
+                continue
             box = L / n
             # (the faces between boxes, summed: what the halo's volume grows with)
             area = float(np.sum((n - 1) * L[[1, 0, 0]] * L[[2, 2, 1]]))
             cost = (area, -min(box) / max(box))
-            if cost < (best if isinstance(best, tuple) else (best, 0)):
-                best, shape = cost, (nx, ny, nz)
+            if best is None or cost < best:
+                best, shape = cost, tuple(int(k) for k in n)
     return shape
 
 
@@ -81,7 +85,8 @@ class Decomposed:
         The box boundaries along each axis, m (the outer ones at -inf and +inf).
     reach : float
         m: the halo holds every sphere whose centre is within this distance of the box:
-        the largest diameter plus the skin plus ``margin``.
+        the largest diameter, plus a tenth of the skin (a sticky contact's reach), plus
+        ``margin``.
     margin : float
         m: the run stops to move spheres between ranks before any sphere can have moved
         margin / 2 since the last time.
@@ -108,7 +113,9 @@ class Decomposed:
         self._fixed = self._fixed_table()
         radii = core.radii()
         r_max = comm.allreduce(float(radii.max()) if len(radii) else 0.0, op=_mpi().MAX)
-        self.reach = 2.0 * r_max + float(core.skin()) + self.margin
+        # (A contact reaches at most r_i + r_j, a sticky one up to the near list's skin / 10
+        # further.)
+        self.reach = 2.0 * r_max + 0.1 * float(core.skin()) + self.margin
         self._moved = 0.0
         self._due = False
         self.cuts = self._balanced_cuts(core.positions(), core.get_ids(), everywhere=True)
@@ -364,70 +371,81 @@ class Decomposed:
     def redistribute(self, balance: bool = False) -> None:
         """Move spheres to the rank whose box now holds them, refill every halo and carry the
         contacts with them (a collective call). ``balance``: first move the cuts so that the
-        boxes hold about as many spheres again (as LAMMPS's ``balance``)."""
+        boxes hold about as many spheres again (as LAMMPS's ``balance``).
+
+        Only what a rank lacks travels: the spheres new to its halo or box, each from its
+        owner, with their contacts there; a sphere that changes owner between two ranks that
+        both hold it sends only its dissipated energy (the copies book their own)."""
         core, comm, me = self._core, self.comm, self._rank
-        ids = core.get_ids()
+        ids = core.get_ids()  # (sorted)
         x = core.positions()
         self._harvest_removed(ids)
-        counts = self.comm.allgather(int(np.count_nonzero(np.isin(self._owned, ids, assume_unique=True))))
+        counts = comm.allgather(int(np.count_nonzero(np.isin(self._owned, ids, assume_unique=True))))
         mean = sum(counts) / len(counts)
         if balance or (self.imbalance is not None and max(counts) > self.imbalance * max(mean, 1.0)):
             self.cuts = self._balanced_cuts(x, ids)
             self.balances += 1
-        owner = self.owner_of(x)
+        owner = self.owner_of(x)  # (every rank finds the same owner for a sphere it holds)
         own = np.isin(ids, self._owned, assume_unique=True)
-        v, w = core.velocities(), core.angular_velocities()
-        radius, material, dissipated = core.radii(), core.materials(), core.dissipated()
         pairs, walls = core.contact_state(False), core.contact_state(True)
-        pos = {int(i): k for k, i in enumerate(ids)}
-        pair_rows = np.array([pos[int(i)] for i in pairs["owner"]], dtype=np.int64)
-        partner_rows = np.array([pos[int(j)] for j in pairs["partner"]], dtype=np.int64)
-        wall_rows = np.array([pos[int(i)] for i in walls["owner"]], dtype=np.int64)
-        # Pairs this rank evaluated for one of its own spheres, walls of its own spheres: the
-        # state it sends (each is right here: docs/parallel.md, "The halo").
-        pair_mine = own[pair_rows] | own[partner_rows] if len(pair_rows) else np.zeros(0, bool)
-        wall_mine = own[wall_rows] if len(wall_rows) else np.zeros(0, bool)
+        p_rows = np.searchsorted(ids, np.asarray(pairs["owner"]))
+        q_rows = np.searchsorted(ids, np.asarray(pairs["partner"]))
+        w_rows = np.searchsorted(ids, np.asarray(walls["owner"]))
+        v = w = radius = material = dissipated = None
         outgoing = []
         for q in range(self._size):
-            there = self._present(x, owner, q)
-            spheres = own & there
-            prow = pair_mine & there[pair_rows] & there[partner_rows] if len(pair_rows) else pair_mine
-            wrow = wall_mine & spheres[wall_rows] if len(wall_rows) else wall_mine
-            outgoing.append({
-                "ids": ids[spheres], "x": x[spheres], "v": v[spheres], "w": w[spheres],
-                "radius": radius[spheres], "material": material[spheres],
-                "dissipated": dissipated[spheres],
-                "pairs": _rows(pairs, prow), "walls": _rows(walls, wrow),
-            })
-        incoming = comm.alltoall(outgoing)
-        got = {k: np.concatenate([m[k] for m in incoming]) for k in
-               ("ids", "x", "v", "w", "radius", "material", "dissipated")}
-        order = np.argsort(got["ids"], kind="stable")
-        got = {k: a[order] for k, a in got.items()}
-        held = set(ids.tolist())
-        new = set(got["ids"].tolist())
-        leaving = np.array(sorted(held - new), dtype=np.int64)
-        arriving = np.isin(got["ids"], np.array(sorted(new - held), dtype=np.int64))
-        core._drop_spheres(leaving)
-        if arriving.any():
-            a = arriving
-            core._insert_spheres(got["ids"][a], got["x"][a].reshape(-1, 3), got["radius"][a],
-                                 got["material"][a].astype(np.int32), got["v"][a].reshape(-1, 3),
-                                 got["w"][a].reshape(-1, 3), got["dissipated"][a])
-            fixed_ids, fv, fw = self._fixed
-            back = np.isin(fixed_ids, got["ids"][a])
-            if back.any():
-                core.fix_spheres(fixed_ids[back], fv[back], fw[back])
-        # A copy books the energy its partial sums dissipate: every sphere takes its owner's.
-        core.set_dissipated(got["dissipated"])
-        # Contacts: this rank's own kept, the others' for the pairs it did not hold.
-        have_p, have_w = core.contact_state(False), core.contact_state(True)
-        merged_p = _merge([have_p] + [m["pairs"] for m in incoming], walls=False)
-        merged_w = _merge([have_w] + [m["walls"] for m in incoming], walls=True)
-        if len(merged_p["owner"]) != len(have_p["owner"]) or len(merged_w["owner"]) != len(have_w["owner"]):
-            core.set_contact_state(merged_p, merged_w)
-        gx = got["x"].reshape(-1, 3)
-        self._set_lists(got["ids"], gx, self.owner_of(gx))
+            message = {}
+            if q != me and own.any():
+                there = self._present(x, owner, q)
+                had = np.isin(ids, self._send.get(q, ()), assume_unique=True)
+                new = own & there & ~had
+                handed = own & had & (owner == q)  # (q holds it already: it takes its energy)
+                if new.any():
+                    if v is None:
+                        v, w = core.velocities(), core.angular_velocities()
+                        radius, material, dissipated = core.radii(), core.materials(), core.dissipated()
+                    prow = (new[p_rows] & there[q_rows]) | (new[q_rows] & there[p_rows])
+                    message.update(ids=ids[new], x=x[new], v=v[new], w=w[new], radius=radius[new],
+                                   material=material[new], dissipated=dissipated[new],
+                                   pairs=_rows(pairs, prow), walls=_rows(walls, new[w_rows]))
+                if handed.any():
+                    if dissipated is None:
+                        dissipated = core.dissipated()
+                    message.update(handed=ids[handed], handed_dissipated=dissipated[handed])
+            outgoing.append(message)
+        incoming = [m for m in comm.alltoall(outgoing) if m]
+        # What stays here: this rank's own now and the spheres within its reach.
+        stays = self._present(x, owner, me)
+        arrivals = [m for m in incoming if "ids" in m]
+        handed = [m for m in incoming if "handed" in m]
+        if arrivals or not stays.all():
+            keep = stays[p_rows] & stays[q_rows] if len(p_rows) else np.zeros(0, bool)
+            kept_pairs = _rows(pairs, keep)
+            kept_walls = _rows(walls, stays[w_rows] if len(w_rows) else np.zeros(0, bool))
+            core._drop_spheres(ids[~stays], carry=False)
+            if arrivals:
+                got = {k: np.concatenate([m[k] for m in arrivals]) for k in
+                       ("ids", "x", "v", "w", "radius", "material", "dissipated")}
+                core._insert_spheres(got["ids"], got["x"].reshape(-1, 3), got["radius"],
+                                     got["material"].astype(np.int32), got["v"].reshape(-1, 3),
+                                     got["w"].reshape(-1, 3), got["dissipated"], carry=False)
+                fixed_ids, fv, fw = self._fixed
+                back = np.isin(fixed_ids, got["ids"])
+                if back.any():
+                    core.fix_spheres(fixed_ids[back], fv[back], fw[back])
+            # The contacts kept, and the arrivals' (a pair of two arrivals from two owners comes
+            # twice: once is kept).
+            core.set_contact_state(
+                _join(kept_pairs, _merge([m["pairs"] for m in arrivals], walls=False) if arrivals else None),
+                _join(kept_walls, _merge([m["walls"] for m in arrivals], walls=True) if arrivals else None))
+        if handed:
+            hid = np.concatenate([m["handed"] for m in handed])
+            held = core.get_ids()
+            d = core.dissipated()
+            d[np.searchsorted(held, hid)] = np.concatenate([m["handed_dissipated"] for m in handed])
+            core.set_dissipated(d)
+        held, hx = core.get_ids(), core.positions()
+        self._set_lists(held, hx, self.owner_of(hx))
         self._moved = 0.0
         self.redistributions += 1
 
@@ -534,6 +552,21 @@ def _rows(state: dict, mask) -> dict:
     return out
 
 
+def _join(a: dict, b: "dict | None") -> dict:
+    """Two contact_state dicts with no contact in common, as one."""
+    if b is None or len(b["owner"]) == 0:
+        return a
+    out = {"owner": np.concatenate([a["owner"], b["owner"]]),
+           "partner": np.concatenate([a["partner"], b["partner"]]),
+           "values": [np.concatenate([np.asarray(x).reshape(len(a["owner"]), wd),
+                                      np.asarray(y).reshape(len(b["owner"]), wd)])
+                      for x, y, wd in zip(a["values"], b["values"], a["widths"])],
+           "widths": list(a["widths"])}
+    if "element" in a:
+        out["element"] = np.concatenate([a["element"], b["element"]])
+    return out
+
+
 def _merge(states: list, walls: bool) -> dict:
     """The contacts of several contact_state dicts, each key once (the first one's copy: every
     copy of a contact holds the same bits), ordered by key."""
@@ -573,7 +606,7 @@ def decompose(simulation, comm=None, shape=None, margin: float | None = None,
         The ranks (default ``MPI.COMM_WORLD``).
     shape : tuple of 3 ints, optional
         Boxes along x, y, z, their product the number of ranks (default: :func:`grid_shape` of
-        the spheres' extent).
+        the spheres' extent, leaving the axis of gravity uncut).
     margin : float, optional
         m, > 0: how much further than the contacts' reach the halo holds spheres (default: the
         largest diameter). A larger margin redistributes less often and holds more copies.
@@ -626,7 +659,10 @@ def decompose(simulation, comm=None, shape=None, margin: float | None = None,
     if shape is None:
         x = core.positions()
         extent = x.max(axis=0) - x.min(axis=0) if len(x) else np.ones(3)
-        shape = grid_shape(comm.Get_size(), extent)
+        # Under gravity the packing changes along it (a bed below, grains falling above): boxes
+        # cut along it hold as many spheres but not as much work. So it is left uncut.
+        g = np.abs(np.asarray(simulation.gravity, dtype=float))
+        shape = grid_shape(comm.Get_size(), extent, uncut=int(np.argmax(g)) if g.any() else None)
     shape = tuple(_checks.whole(f"shape[{d}]", s, minimum=1) for d, s in enumerate(shape))
     if len(shape) != 3 or int(np.prod(shape)) != comm.Get_size():
         raise ValueError(f"shape must be 3 whole numbers whose product is the number of ranks "

@@ -23,6 +23,7 @@
 #include "material.hpp"
 #include "memory.hpp"
 #include "neighbor_list.hpp"
+#include "observables.hpp"
 #include "options.hpp"
 #include "particles.hpp"
 #include "registry.hpp"
@@ -31,34 +32,6 @@
 #include "walls/walls.hpp"
 
 namespace tsubu {
-
-struct Energy {
-  double translational = 0, rotational = 0, gravitational = 0, elastic = 0, dissipated = 0;
-  // Symplectic Euler conserves, for linear springs, not total() but total() + step_correction:
-  // (dt/2) sum v.F over gravity and the normal springs (forces of the positions), minus the same
-  // over the tangential springs (forces of this step's displacement, one velocity later).
-  // Filled by energy_now() only.
-  double step_correction = 0;
-  double kinetic() const { return translational + rotational; }
-  // Mechanical energy; with fixed walls, total() + dissipated stays constant.
-  double total() const { return translational + rotational + gravitational + elastic; }
-};
-
-// One current contact, as evaluated at the start of the last step.
-struct ContactInfo {
-  Id i;           // particle id
-  Id j;           // partner particle id, or -1 for a wall
-  int wall;       // wall index, or -1 for a particle pair
-  int element;    // a mesh wall's triangle (0 for a plane), or -1 for a particle pair
-  double overlap; // m
-  Vec3 force;     // total contact force on i, N
-  Vec3 torque_i;  // torque on i from this contact, N m
-  Vec3 tangential_displacement;  // stored history xi, m (zero without friction)
-  double reduced_radius;  // R* = r_i r_j / (r_i + r_j); a wall: r_i
-  double contact_radius;  // a = sqrt(R* delta) as the Mindlin history keeps it; 0 otherwise
-  Vec3 wall_point = Vec3::Zero();  // a wall contact: the point of the wall nearest i's centre now
-  Vec3 branch = Vec3::Zero();  // a pair: x_j - x_i now, to j's image nearest i (periodic boxes)
-};
 
 class Simulation : private detail::RunHooks {
  public:
@@ -91,30 +64,21 @@ class Simulation : private detail::RunHooks {
   // increasing id (ids need not be 0..N-1). Throws InvalidArgument for an unknown or repeated
   // id, std::logic_error during a run.
   void remove_spheres(std::size_t count, const Id* ids);
-  // ---- a domain decomposition's halo (docs/parallel.md) --------------------------------------
-  // A rank of a decomposed scene holds its own spheres and copies of its neighbours' near its
-  // sub-domain (the halo), each under its global id; these move spheres in and out of it.
-  // insert_spheres puts spheres back under the ids given (each unused now), with their state and
-  // dissipated energy, as they are elsewhere: no overlap check, no log. drop_spheres takes
-  // spheres out without logging them (their contacts with the others end; those between the
-  // others are kept). Both throw InvalidArgument for a bad id, std::logic_error during a run.
+  // ---- a rank's part of a decomposed scene (halo.cpp, docs/parallel.md) ---------------------
+  // Spheres in and out under their global ids (insert: each unused, with its state, unchecked,
+  // unlogged; drop: unlogged), their contacts carried unless carry is false (the caller then
+  // sets the contact state); pack/unpack x, v, w (9 values a sphere) of the listed ids, skipping
+  // ids not held (unpack returns the largest |v|^2 written). The exchange is called by the loop
+  // after each particle pass with its max |v|^2 and returns the halo's; while one is set, no
+  // passes fuse and the energy audit is off. InvalidArgument for a bad id.
   void insert_spheres(std::size_t n, const Id* ids, const double* positions, const double* radii,
                       const int* materials, const double* velocities,
-                      const double* angular_velocities, const double* dissipated);
-  void drop_spheres(std::size_t count, const Id* ids);
-  // The state of the listed spheres (x, v, w: 9 values each) into out, skipping ids not
-  // present; returns how many it wrote. unpack_state writes them back in the same way (ids not
-  // present skipped, so that a sphere an outlet took on both sides drops out of both) and returns
-  // the largest |v|^2 it wrote (0 for none).
+                      const double* angular_velocities, const double* dissipated, bool carry = true);
+  void drop_spheres(std::size_t count, const Id* ids, bool carry = true);
   std::size_t pack_state(std::size_t n, const Id* ids, double* out) const;
   double unpack_state(std::size_t n, const Id* ids, const double* in);
-  // Called by the loop after each step's particle pass with that pass's max |v|^2: a rank
-  // updates its halo there (unpack_state) and returns the largest |v|^2 it wrote, which the
-  // lists' moved bound then includes. It may request_stop(). While one is set, the loop fuses
-  // no passes and the energy audit is off (halo spheres change by other forces than the rank's).
   void set_exchange(std::function<double(double)> exchange) { exchange_ = std::move(exchange); }
   bool has_exchange() const { return static_cast<bool>(exchange_); }
-
   Id add_sphere(const Vec3& position, double radius, int material,
                 const Vec3& velocity = Vec3::Zero(), const Vec3& angular_velocity = Vec3::Zero());
   int add_plane(const Vec3& point, const Vec3& normal, int material,
@@ -474,7 +438,7 @@ class Simulation : private detail::RunHooks {
   std::function<double(double)> exchange_;
   // remove_spheres without the checks of the ids and of a run, logging the spheres removed by
   // outlet `outlet[k]` (-1: by remove_spheres).
-  void remove_now(std::size_t count, const Id* ids, const int* outlet, bool log = true);
+  void remove_now(std::size_t count, const Id* ids, const int* outlet, bool log = true, bool carry = true);
   // A moving wall faster than light (kMaxWallSpeed) where a sphere is: InvalidArgument.
   void check_wall_speeds() const;
 
