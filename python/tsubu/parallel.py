@@ -252,6 +252,8 @@ class Decomposed:
             As :meth:`tsubu.Simulation.run`: rank 0 saves the gathered scene, a checkpoint that
             loads in one process or on any number of ranks.
 
+        Notes
+        -----
         An error on one rank (an unstable run, a hook that raises) is printed there and ends
         every rank (``MPI_Abort``, exit status 1), as LAMMPS's errors do: the others would wait
         for it forever.
