@@ -66,6 +66,38 @@ def test_any_number_of_ranks_gives_the_bits_of_one_process(reference, tmp_path, 
         assert all(int(k) > 0 for k in owned), said
 
 
+@pytest.fixture(scope="module")
+def chute_reference(tmp_path_factory):
+    out = tmp_path_factory.mktemp("mpi") / "chute.npz"
+    _run(["reference", STEPS, out, "--chute"])
+    ref = np.load(out)
+    # Spheres crossed the periodic faces (and wrapped at the rebuilds), touching across them.
+    assert np.abs(ref["images"]).sum() > 20
+    return out
+
+
+@pytest.mark.slow
+@needs_mpiexec
+@pytest.mark.parametrize("ranks", [2, 4])
+def test_a_periodic_chute_cut_across_its_periodic_axes_gives_the_bits_of_one_process(chute_reference, tmp_path,
+                                                                                    ranks):
+    # A periodic scene wraps its spheres at the lists' rebuilds: every rank books the whole
+    # scene's largest speed, so that its rebuilds fall where one process's do.
+    out = tmp_path / f"chute{ranks}.npz"
+    _run(["decomposed", STEPS, out, "--chute"], ranks=ranks)
+    _same(chute_reference, out)
+
+
+@pytest.mark.slow
+@needs_mpiexec
+def test_a_periodic_checkpoint_written_on_three_ranks_resumes_on_two(chute_reference, tmp_path):
+    half = STEPS // 2
+    saved = tmp_path / "three.tsubu"
+    _run(["decomposed", half, tmp_path / "three.npz", "--save", saved, "--chute"], ranks=3)
+    _run(["decomposed", STEPS - half, tmp_path / "two.npz", "--load", saved, "--chute"], ranks=2)
+    _same(chute_reference, tmp_path / "two.npz")
+
+
 @pytest.mark.slow
 @needs_mpiexec
 def test_a_checkpoint_written_on_three_ranks_resumes_on_two_and_on_one(reference, tmp_path):
@@ -103,7 +135,10 @@ def test_ranks_that_built_different_scenes_are_refused(tmp_path):
 # (slow: these start MPI in the test's own process, which the sanitizer run leaves out)
 @pytest.mark.slow
 @pytest.mark.parametrize("change, message", [
-    (lambda s: s.set_box((0, 0, -1), (0.03, 0.03, 1), periodic="x"), "periodic boxes"),
+    (lambda s: (s.set_box((0, 0, -1), (0.03, 0.03, 1), periodic="xz"), s.set_shear(10.0, flow="x", gradient="z")),
+     "Lees-Edwards"),
+    (lambda s: (s.set_box((0, 0, -1), (0.03, 0.03, 1), periodic="xz"),
+                s.set_pressure(100.0, gain=1e-6, axis="z")), "pressure-controlled"),
     (lambda s: s.set_wall_servo(1, force=1.0, max_speed=0.1), "servo wall"),
 ])
 def test_what_is_not_cut_over_ranks_yet_is_refused(change, message):

@@ -94,7 +94,7 @@ void register_boundaries(py::class_<Sim>& cls) {
   cls.def(
          "_insert_spheres",
          [](Sim& s, const Ids& ids, const Array& x, const Array& r, const IntArray& m, const Array& v,
-            const Array& w, const Array& dissipated, bool carry) {
+            const Array& w, const Array& dissipated, bool carry, std::optional<Ids> images) {
            const std::size_t n = count_of(ids);
            check_n3(x, n, "positions");
            check_n3(v, n, "velocities");
@@ -102,11 +102,13 @@ void register_boundaries(py::class_<Sim>& cls) {
            if (static_cast<std::size_t>(r.size()) != n || static_cast<std::size_t>(m.size()) != n ||
                static_cast<std::size_t>(dissipated.size()) != n)
              throw py::value_error("radii, materials and dissipated must have one value per id");
+           if (images && static_cast<std::size_t>(images->size()) != 3 * n)
+             throw py::value_error("images must have shape (" + std::to_string(n) + ", 3)");
            s.insert_spheres(n, ids.data(), x.data(), r.data(), m.data(), v.data(), w.data(), dissipated.data(),
-                            carry);
+                            carry, images ? images->data() : nullptr);
          },
          "ids"_a, "positions"_a, "radii"_a, "materials"_a, "velocities"_a, "angular_velocities"_a,
-         "dissipated"_a, "carry"_a = true)
+         "dissipated"_a, "carry"_a = true, "images"_a = py::none())
       .def(
           "_drop_spheres",
           [](Sim& s, const Ids& ids, bool carry) { s.drop_spheres(count_of(ids), ids.data(), carry); },
@@ -137,6 +139,28 @@ void register_boundaries(py::class_<Sim>& cls) {
           },
           "exchange"_a)
       .def_property_readonly("_has_exchange", &Sim::has_exchange)
+      .def("_raw_state",
+           [](const Sim& s, const Ids& ids) {
+             // x, v, w as stored (a periodic box's spheres unwrapped until the next rebuild)
+             // and the image counters with them, for the listed ids (all held).
+             const std::size_t n = count_of(ids);
+             Array out({static_cast<py::ssize_t>(n), py::ssize_t(9)});
+             if (s.pack_state(n, ids.data(), out.mutable_data()) != n)
+               throw tsubu::InvalidArgument("_raw_state: an id is not held");
+             py::array_t<std::int64_t> images({static_cast<py::ssize_t>(n), py::ssize_t(3)});
+             const tsubu::ParticleStore& ps = s.particles().arrays();
+             for (std::size_t k = 0; k < n; ++k)
+               for (int c = 0; c < 3; ++c)
+                 images.mutable_data()[3 * k + c] =
+                     ps.imaged ? ps.image[3 * static_cast<std::size_t>(s.particles().index(ids.data()[k])) + c] : 0;
+             return py::make_tuple(out, images);
+           },
+           "ids"_a)
+      .def("_set_own", [](Sim& s, const Ids& ids) { s.set_own(count_of(ids), ids.data()); }, "ids"_a)
+      .def("_own_speed2", &Sim::own_speed2)
+      .def_property(
+          "_moved_bounds", &Sim::moved_bounds,
+          [](Sim& s, std::array<double, 2> m) { s.set_moved_bounds(m[0], m[1]); })
       .def(
           "_set_removed",
           [](Sim& s, const Ids& id, const IntArray& outlet, const Ids& step, const Array& time,

@@ -229,10 +229,12 @@ void register_state(py::class_<Sim>& cls) {
       .def("run_state", &run_state_dict)
       .def("set_run_state", &set_run_state)
       .def("contact_state", &contact_state_dict, "walls"_a)
-      .def("set_contact_state",
-           [](Sim& s, const py::dict& pairs, const py::dict& walls) {
-             s.set_contact_state(contact_state_from(pairs), contact_state_from(walls));
-           })
+      .def(
+          "set_contact_state",
+          [](Sim& s, const py::dict& pairs, const py::dict& walls, bool wrap) {
+            s.set_contact_state(contact_state_from(pairs), contact_state_from(walls), wrap);
+          },
+          "pairs"_a, "walls"_a, "wrap"_a = true)
       .def("save_bytes",
            [](const Sim& s) {
              std::ostringstream out;

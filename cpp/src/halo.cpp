@@ -16,7 +16,8 @@ using detail::require;
 
 void Simulation::insert_spheres(std::size_t n, const Id* ids, const double* positions, const double* radii,
                                 const int* materials, const double* velocities,
-                                const double* angular_velocities, const double* dissipated, bool keep) {
+                                const double* angular_velocities, const double* dissipated, bool keep,
+                                const std::int64_t* images) {
   if (running()) throw std::logic_error("tsubu: Simulation::insert_spheres during a run");
   std::vector<char> seen;
   for (std::size_t k = 0; k < n; ++k) {
@@ -47,7 +48,10 @@ void Simulation::insert_spheres(std::size_t n, const Id* ids, const double* posi
   domain_.clear_ghosts();
   const std::size_t first = particles_.size();
   particles_.insert(n, ids, positions, radii, materials, velocities, angular_velocities, materials_);
-  for (std::size_t k = 0; k < n; ++k) particles_.arrays().dissipated[first + k] = dissipated[k];
+  ParticleStore& ps = particles_.arrays();
+  for (std::size_t k = 0; k < n; ++k) ps.dissipated[first + k] = dissipated[k];
+  if (images && ps.imaged)
+    for (std::size_t k = 0; k < 3 * n; ++k) ps.image[3 * first + k] = static_cast<decltype(ps.image)::value_type>(images[k]);
   const long rebuilds = lists_.rebuilds, refreshes = lists_.refreshes;
   lists_ = NeighborList();
   lists_.rebuilds = rebuilds;
@@ -102,6 +106,29 @@ double Simulation::unpack_state(std::size_t n, const Id* ids, const double* in) 
     v2 = std::max(v2, o[3] * o[3] + o[4] * o[4] + o[5] * o[5]);
   }
   return v2;
+}
+
+void Simulation::set_own(std::size_t n, const Id* ids) {
+  own_.assign(particles_.id_bound(), 0);
+  for (std::size_t k = 0; k < n; ++k)
+    if (particles_.has(ids[k])) own_[static_cast<std::size_t>(ids[k])] = 1;
+}
+
+double Simulation::own_speed2() const {
+  const ParticleStore& ps = particles_.arrays();
+  double top = 0;
+  const std::size_t n = particles_.size();
+  for (std::size_t k = 0; k < n; ++k) {
+    const std::size_t id = static_cast<std::size_t>(ps.id[k]);
+    if (id >= own_.size() || !own_[id]) continue;
+    const double* v = ps.v.data() + 3 * k;
+    top = std::max(top, v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);  // (as the particle pass)
+  }
+  for (std::size_t k = 0; k < fixed_.ids.size() && k < fixed_.pass_v2.size(); ++k) {
+    const std::size_t id = static_cast<std::size_t>(fixed_.ids[k]);
+    if (id < own_.size() && own_[id]) top = std::max(top, fixed_.pass_v2[k]);
+  }
+  return top;
 }
 
 }  // namespace tsubu

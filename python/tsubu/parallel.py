@@ -111,6 +111,10 @@ class Decomposed:
         self._core = core
         self._rank, self._size = comm.Get_rank(), comm.Get_size()
         self._fixed = self._fixed_table()
+        box = simulation.box
+        self._periodic = [] if box is None else ["xyz".index(a) for a in box.periodic]
+        self._lower = None if box is None else np.asarray(box.lower, dtype=float)
+        self._upper = None if box is None else np.asarray(box.upper, dtype=float)
         radii = core.radii()
         r_max = comm.allreduce(float(radii.max()) if len(radii) else 0.0, op=_mpi().MAX)
         # (A contact reaches at most r_i + r_j, a sticky one up to the near list's skin / 10
@@ -128,8 +132,10 @@ class Decomposed:
         ids, x = core.get_ids(), core.positions()
         owner = self.owner_of(x)
         keep = self._present(x, owner, self._rank)
+        pairs, walls = core.contact_state(False), core.contact_state(True)
+        held = np.isin(pairs["owner"], ids[keep]) & np.isin(pairs["partner"], ids[keep])
+        self._reshape(ids[~keep], None, _rows(pairs, held), _rows(walls, np.isin(walls["owner"], ids[keep])))
         self._set_lists(ids[keep], x[keep], owner[keep])
-        core._drop_spheres(ids[~keep])
 
     # ---- geometry ---------------------------------------------------------------------------
     def _balanced_cuts(self, x, ids, everywhere=False):
@@ -152,7 +158,10 @@ class Decomposed:
                     inner.append(float(q))
             else:
                 inner = [0.0] * (n - 1)
-            cuts.append(np.array([-np.inf] + inner + [np.inf]))
+            if d in self._periodic:  # (its boxes end at the faces: their images are the far side's)
+                cuts.append(np.array([self._lower[d]] + inner + [self._upper[d]]))
+            else:
+                cuts.append(np.array([-np.inf] + inner + [np.inf]))
         del MPI
         return cuts
 
@@ -173,6 +182,11 @@ class Decomposed:
         """Whether each sphere (centres x, owners) is held by `rank`: its own, or in its halo."""
         lo, hi = self._box_of(rank)
         gap = np.maximum(np.maximum(lo - x, x - hi), 0.0)
+        for d in self._periodic:  # (the nearest image along a periodic axis)
+            length = self._upper[d] - self._lower[d]
+            for shift in (-length, length):
+                xs = x[:, d] + shift
+                gap[:, d] = np.minimum(gap[:, d], np.maximum(np.maximum(lo[d] - xs, xs - hi[d]), 0.0))
         return (owner == rank) | (np.sqrt(np.sum(gap * gap, axis=1)) <= self.reach)
 
     @property
@@ -196,6 +210,8 @@ class Decomposed:
             mine = owner == q
             if mine.any():
                 self._recv[q] = np.sort(ids[mine])
+        if self._periodic:
+            self._core._set_own(self._owned)
         self._send_buffers = {q: np.empty(9 * len(v)) for q, v in self._send.items()}
         self._recv_buffers = {q: np.empty(9 * len(v)) for q, v in self._recv.items()}
 
@@ -224,13 +240,17 @@ class Decomposed:
         v2 = 0.0
         for q, ids in self._recv.items():
             v2 = max(v2, core._unpack_state(ids, self._recv_buffers[q]))
+        # The step's largest speed over every rank: what the lists book. In a periodic box, the
+        # largest over the spheres each rank owns, as one process finds it (it wraps spheres at
+        # rebuilds, which must fall at the same steps); elsewhere any bound will do.
+        local = core._own_speed2() if self._periodic else max(vmax2, v2)
+        top = comm.allreduce(local, op=MPI.MAX)
         # The run stops for a redistribution before any sphere can have moved margin / 2.
-        self._moved += self._dt * math.sqrt(max(vmax2, v2))
-        moved = comm.allreduce(self._moved, op=MPI.MAX)
-        if moved > 0.5 * self.margin:
+        self._moved += self._dt * math.sqrt(top)
+        if self._moved > 0.5 * self.margin:
             self._due = True
             core.request_stop()
-        return v2
+        return top
 
     def run(self, steps: int | None = None, time: float | None = None, *, output=None,
             checkpoint=None, checkpoint_every: int | None = None,
@@ -370,6 +390,28 @@ class Decomposed:
                 core._set_exchange(self._exchange)
 
     # ---- moving spheres between ranks -----------------------------------------------------------
+    def _reshape(self, leaving, arriving, pairs, walls) -> None:
+        """Drops the spheres ``leaving`` (ids), inserts ``arriving`` (a dict of arrays, or
+        None), and sets the contacts ``pairs`` and ``walls`` (contact_state dicts): one rebuild
+        of the lists. In a periodic box that rebuild wraps nothing and the lists keep their
+        displacement bounds, so that the next rebuild, which wraps, falls where one process's
+        does."""
+        core = self._core
+        bounds = core._moved_bounds
+        core._drop_spheres(np.asarray(leaving, dtype=np.int64), carry=False)
+        if arriving is not None and len(arriving["ids"]):
+            core._insert_spheres(arriving["ids"], arriving["x"].reshape(-1, 3), arriving["radius"],
+                                 arriving["material"].astype(np.int32), arriving["v"].reshape(-1, 3),
+                                 arriving["w"].reshape(-1, 3), arriving["dissipated"], carry=False,
+                                 images=arriving["images"].reshape(-1, 3) if self._periodic else None)
+            fixed_ids, fv, fw = self._fixed
+            back = np.isin(fixed_ids, arriving["ids"])
+            if back.any():
+                core.fix_spheres(fixed_ids[back], fv[back], fw[back])
+        core.set_contact_state(pairs, walls, wrap=not self._periodic)
+        if self._periodic:
+            core._moved_bounds = bounds
+
     def redistribute(self, balance: bool = False) -> None:
         """Move spheres to the rank whose box now holds them, refill every halo and carry the
         contacts with them (a collective call). ``balance``: first move the cuts so that the
@@ -393,7 +435,7 @@ class Decomposed:
         p_rows = np.searchsorted(ids, np.asarray(pairs["owner"]))
         q_rows = np.searchsorted(ids, np.asarray(pairs["partner"]))
         w_rows = np.searchsorted(ids, np.asarray(walls["owner"]))
-        v = w = radius = material = dissipated = None
+        radius = material = dissipated = None
         outgoing = []
         for q in range(self._size):
             message = {}
@@ -403,13 +445,12 @@ class Decomposed:
                 new = own & there & ~had
                 handed = own & had & (owner == q)  # (q holds it already: it takes its energy)
                 if new.any():
-                    if v is None:
-                        v, w = core.velocities(), core.angular_velocities()
+                    if radius is None:
                         radius, material, dissipated = core.radii(), core.materials(), core.dissipated()
                     prow = (new[p_rows] & there[q_rows]) | (new[q_rows] & there[p_rows])
-                    message.update(ids=ids[new], x=x[new], v=v[new], w=w[new], radius=radius[new],
-                                   material=material[new], dissipated=dissipated[new],
-                                   pairs=_rows(pairs, prow), walls=_rows(walls, new[w_rows]))
+                    message.update(_raw(core, ids[new]), radius=radius[new], material=material[new],
+                                   dissipated=dissipated[new], pairs=_rows(pairs, prow),
+                                   walls=_rows(walls, new[w_rows]))
                 if handed.any():
                     if dissipated is None:
                         dissipated = core.dissipated()
@@ -424,22 +465,14 @@ class Decomposed:
             keep = stays[p_rows] & stays[q_rows] if len(p_rows) else np.zeros(0, bool)
             kept_pairs = _rows(pairs, keep)
             kept_walls = _rows(walls, stays[w_rows] if len(w_rows) else np.zeros(0, bool))
-            core._drop_spheres(ids[~stays], carry=False)
+            got = None
             if arrivals:
-                got = {k: np.concatenate([m[k] for m in arrivals]) for k in
-                       ("ids", "x", "v", "w", "radius", "material", "dissipated")}
-                core._insert_spheres(got["ids"], got["x"].reshape(-1, 3), got["radius"],
-                                     got["material"].astype(np.int32), got["v"].reshape(-1, 3),
-                                     got["w"].reshape(-1, 3), got["dissipated"], carry=False)
-                fixed_ids, fv, fw = self._fixed
-                back = np.isin(fixed_ids, got["ids"])
-                if back.any():
-                    core.fix_spheres(fixed_ids[back], fv[back], fw[back])
+                got = {k: np.concatenate([m[k] for m in arrivals]) for k in _SPHERE_KEYS if k in arrivals[0]}
             # The contacts kept, and the arrivals' (a pair of two arrivals from two owners comes
             # twice: once is kept).
-            core.set_contact_state(
-                _join(kept_pairs, _merge([m["pairs"] for m in arrivals], walls=False) if arrivals else None),
-                _join(kept_walls, _merge([m["walls"] for m in arrivals], walls=True) if arrivals else None))
+            self._reshape(ids[~stays], got,
+                          _join(kept_pairs, _merge([m["pairs"] for m in arrivals], walls=False) if arrivals else None),
+                          _join(kept_walls, _merge([m["walls"] for m in arrivals], walls=True) if arrivals else None))
         if handed:
             hid = np.concatenate([m["handed"] for m in handed])
             held = core.get_ids()
@@ -491,12 +524,8 @@ class Decomposed:
         pairs, walls = core.contact_state(False), core.contact_state(True)
         mine_p = np.isin(pairs["owner"], self._owned)  # (the lower id's owner sends a pair)
         mine_w = np.isin(walls["owner"], self._owned)
-        part = {
-            "ids": ids[own], "x": core.positions()[own], "v": core.velocities()[own],
-            "w": core.angular_velocities()[own], "radius": core.radii()[own],
-            "material": core.materials()[own], "dissipated": core.dissipated()[own],
-            "pairs": _rows(pairs, mine_p), "walls": _rows(walls, mine_w),
-        }
+        part = dict(_raw(core, ids[own]), radius=core.radii()[own], material=core.materials()[own],
+                    dissipated=core.dissipated()[own], pairs=_rows(pairs, mine_p), walls=_rows(walls, mine_w))
         log = self.removed()
         parts = comm.gather(part, root=root)
         if comm.Get_rank() != root:
@@ -504,21 +533,27 @@ class Decomposed:
         whole = pickle.loads(pickle.dumps(self.simulation))
         wc = whole._core
         wc._set_exchange(None)
-        wc._drop_spheres(wc.get_ids())
-        got = {k: np.concatenate([p[k] for p in parts]) for k in
-               ("ids", "x", "v", "w", "radius", "material", "dissipated")}
+        got = {k: np.concatenate([p[k] for p in parts]) for k in _SPHERE_KEYS if k in parts[0]}
         order = np.argsort(got["ids"], kind="stable")
         got = {k: a[order] for k, a in got.items()}
-        wc._insert_spheres(got["ids"], got["x"].reshape(-1, 3), got["radius"], got["material"].astype(np.int32),
-                           got["v"].reshape(-1, 3), got["w"].reshape(-1, 3), got["dissipated"])
-        fixed_ids, fv, fw = self._fixed
-        back = np.isin(fixed_ids, got["ids"])
-        if back.any():
-            wc.fix_spheres(fixed_ids[back], fv[back], fw[back])
-        wc.set_contact_state(_merge([p["pairs"] for p in parts], walls=False),
-                             _merge([p["walls"] for p in parts], walls=True))
+        gatherer = Decomposed.__new__(Decomposed)  # (its _reshape, on the whole)
+        gatherer._core, gatherer._fixed, gatherer._periodic = wc, self._fixed, self._periodic
+        gatherer._reshape(wc.get_ids(), got, _merge([p["pairs"] for p in parts], walls=False),
+                          _merge([p["walls"] for p in parts], walls=True))
         wc._set_removed(*(log[k] for k in ("id", "outlet", "step", "time", "position", "velocity")))
         return whole
+
+
+_SPHERE_KEYS = ("ids", "x", "v", "w", "radius", "material", "dissipated", "images")
+
+
+def _raw(core, ids) -> dict:
+    """The spheres ``ids`` (all held) as stored: position, velocity, spin and image counters
+    (in a periodic box a sphere stays unwrapped until the next rebuild; the positions property
+    reports it wrapped, which would wrap it at another step than one process does)."""
+    state, images = core._raw_state(np.asarray(ids, dtype=np.int64))
+    return {"ids": np.asarray(ids, dtype=np.int64), "x": state[:, 0:3], "v": state[:, 3:6],
+            "w": state[:, 6:9], "images": images}
 
 
 def launched_ranks() -> int:
@@ -633,8 +668,12 @@ def decompose(simulation, comm=None, shape=None, margin: float | None = None,
     if comm is None:
         comm = MPI.COMM_WORLD
     core = simulation._core
-    if simulation.box is not None:
-        raise ValueError("decompose: periodic boxes are not cut over ranks yet (docs/parallel.md)")
+    box = simulation.box
+    if box is not None and box.shear_rate != 0:
+        raise ValueError("decompose: a Lees-Edwards box is not cut over ranks yet (docs/parallel.md)")
+    if box is not None and box.pressure is not None:
+        raise ValueError("decompose: a pressure-controlled box needs the stress of every rank's "
+                         "contacts each step: not cut over ranks yet (docs/parallel.md)")
     if simulation.inserters:
         raise ValueError("decompose: inserters are not run over ranks yet: insert before decomposing")
     for k in range(simulation.wall_count):

@@ -7,6 +7,8 @@ spheres, removals).
 
     python scene.py reference STEPS OUT.npz          one process, no MPI
     mpiexec -n R python scene.py decomposed STEPS OUT.npz [--save PATH] [--load PATH]
+
+--chute: the periodic chute of build_chute instead.
 """
 import sys
 
@@ -39,10 +41,32 @@ def build(n=500, seed=3):
     return sim
 
 
+def build_chute(seed=4):
+    """A chute: a layer periodic along x and y on a base of glued spheres, gravity tilted 24
+    degrees along x; spheres cross the periodic faces and keep their contacts across them."""
+    angle = np.radians(24.0)
+    sim = tsubu.Simulation(gravity=(9.81 * np.sin(angle), 0.0, -9.81 * np.cos(angle)), threads=1)
+    m = tsubu.Material(density=2500.0, youngs_modulus=5e6, poisson_ratio=0.3, restitution=0.4,
+                       friction=0.4)
+    rng = np.random.default_rng(seed)
+    L = 0.02
+    base = np.stack(np.meshgrid(np.arange(10), np.arange(10), indexing="ij"), -1).reshape(-1, 2)
+    xb = np.column_stack([(base + 0.5) * L / 10, np.zeros(len(base))])
+    sim.add_spheres(xb, 0.001, m)
+    g = np.stack(np.meshgrid(np.arange(8), np.arange(8), np.arange(5), indexing="ij"), -1).reshape(-1, 3)
+    x = (g + 0.5) * np.array([L / 8, L / 8, 0.0024]) + np.array([0, 0, 0.0022])
+    x += rng.uniform(-1e-4, 1e-4, x.shape)
+    sim.add_spheres(x, rng.uniform(0.0009, 0.0011, len(x)), m, velocities=rng.normal(0.0, 0.05, x.shape))
+    sim.set_box(lower=(0, 0, -0.001), upper=(L, L, 0.03), periodic="xy")
+    sim.fix_spheres(np.arange(len(base)))
+    return sim
+
+
 def record(sim, path):
     c = sim.contacts()
     gone = sim.removed()
-    np.savez(path, removed_id=gone["id"], removed_step=gone["step"], removed_x=gone["position"], ids=sim.ids, x=sim.positions, v=sim.velocities, w=sim.angular_velocities,
+    extra = {"images": sim.images} if sim.box is not None else {}
+    np.savez(path, **extra, removed_id=gone["id"], removed_step=gone["step"], removed_x=gone["position"], ids=sim.ids, x=sim.positions, v=sim.velocities, w=sim.angular_velocities,
              forces=sim.forces, dissipated=sim._core.dissipated(), step=sim.step_count,
              ci=c["i"], cj=c["j"], cwall=c["wall"], cxi=c["tangential_displacement"], cf=c["force"])
 
@@ -62,7 +86,7 @@ def main(argv):
         except ValueError as e:
             print("refused:", e)
         return
-    sim = tsubu.Simulation.load(load) if load else build()
+    sim = tsubu.Simulation.load(load) if load else build_chute() if "--chute" in rest else build()
     if mode == "reference":
         sim.run(steps)
         record(sim, out)

@@ -20,6 +20,7 @@ struct FixedSpheres {
   std::vector<Id> ids;        // by increasing id
   std::vector<double> v, w;   // the prescribed velocity and angular velocity, 3 per id
   std::vector<double> x0;     // scratch: the positions before the particle pass
+  std::vector<double> pass_v2;  // |v|^2 as the particle pass left each, before after() (3 each)
 
   bool empty() const { return ids.empty(); }
   // Whether some fixed sphere moves or spins (then it works on the scene like a moving wall).
@@ -46,8 +47,11 @@ struct FixedSpheres {
   double after(Particles& p, double dt) {
     ParticleStore& s = p.arrays();
     double top = 0;
+    pass_v2.resize(ids.size());
     for (std::size_t k = 0; k < ids.size(); ++k) {
       const std::size_t i = static_cast<std::size_t>(p.index(ids[k]));
+      // (a rank of a decomposed scene books the speed the pass gave it, as one process does)
+      pass_v2[k] = s.v[3 * i] * s.v[3 * i] + s.v[3 * i + 1] * s.v[3 * i + 1] + s.v[3 * i + 2] * s.v[3 * i + 2];
       double v2 = 0;
       for (int c = 0; c < 3; ++c) {
         const double vc = v[3 * k + c];

@@ -73,12 +73,23 @@ class Simulation : private detail::RunHooks {
   // passes fuse and the energy audit is off. InvalidArgument for a bad id.
   void insert_spheres(std::size_t n, const Id* ids, const double* positions, const double* radii,
                       const int* materials, const double* velocities,
-                      const double* angular_velocities, const double* dissipated, bool carry = true);
+                      const double* angular_velocities, const double* dissipated, bool carry = true,
+                      const std::int64_t* images = nullptr);
   void drop_spheres(std::size_t count, const Id* ids, bool carry = true);
   std::size_t pack_state(std::size_t n, const Id* ids, double* out) const;
   double unpack_state(std::size_t n, const Id* ids, const double* in);
   void set_exchange(std::function<double(double)> exchange) { exchange_ = std::move(exchange); }
+  // The rank's own spheres (by id), and the step's max |v|^2 over them as one process finds it
+  // over all (the particle pass's, a fixed sphere's before its motion is imposed included): a
+  // periodic box wraps at rebuilds, which every rank must then take where one process does.
+  void set_own(std::size_t n, const Id* ids);
+  double own_speed2() const;
+  // The lists' displacement bounds since the last rebuild and refresh (kept through a rank's
+  // changes, so that it rebuilds where one process would).
+  std::array<double, 2> moved_bounds() const { return {lists_.moved, lists_.moved_near}; }
+  void set_moved_bounds(double moved, double moved_near) { lists_.moved = moved, lists_.moved_near = moved_near; }
   bool has_exchange() const { return static_cast<bool>(exchange_); }
+  const Particles& particles() const { return particles_; }
   Id add_sphere(const Vec3& position, double radius, int material,
                 const Vec3& velocity = Vec3::Zero(), const Vec3& angular_velocity = Vec3::Zero());
   int add_plane(const Vec3& point, const Vec3& normal, int material,
@@ -436,6 +447,7 @@ class Simulation : private detail::RunHooks {
   void remove_outgoing() override;
   double exchange_ghosts(double vmax2) override { return exchange_(vmax2); }
   std::function<double(double)> exchange_;
+  std::vector<char> own_;  // (set_own: by id)
   // remove_spheres without the checks of the ids and of a run, logging the spheres removed by
   // outlet `outlet[k]` (-1: by remove_spheres).
   void remove_now(std::size_t count, const Id* ids, const int* outlet, bool log = true, bool carry = true);

@@ -91,8 +91,9 @@ struct Stepper {
                           run.regions[int(Region::Particles)]);
       run.balance.step();
       if (s.fixed) vmax2 = std::max(vmax2, s.fixed->after(s.particles, dt));
-      // A rank's halo takes its owners' state here; its moves count in the bound.
-      if (s.exchange) vmax2 = std::max(vmax2, s.hooks.exchange_ghosts(vmax2));
+      // A rank's halo takes its owners' state here; the hook answers the step's max |v|^2 of
+      // the whole scene (over every rank), which the lists book.
+      if (s.exchange) vmax2 = s.hooks.exchange_ghosts(vmax2);
       run.last_move = std::sqrt(vmax2) * dt;  // the distance any particle moved: dt max|v|
       // (A Lees–Edwards image also moves at the slide's speed: a pair across the sheared faces
       // closes by at most 2 moved + slide, so each sphere books half the slide; without walls,

@@ -97,7 +97,8 @@ class RunHooks {
   // take (docs/boundaries.md).
   virtual void remove_outgoing() {}
   // After a step's particle pass, with its max |v|^2, in a decomposed scene (World::exchange):
-  // the halo's spheres take their owners' state; returns the largest |v|^2 among them.
+  // the halo's spheres take their owners' state; returns the max |v|^2 the lists then book (at
+  // least that of every sphere the rank holds).
   virtual double exchange_ghosts(double) { return 0; }
 
  protected:
