@@ -8,7 +8,7 @@ spheres, removals).
     python scene.py reference STEPS OUT.npz          one process, no MPI
     mpiexec -n R python scene.py decomposed STEPS OUT.npz [--save PATH] [--load PATH]
 
---chute: the periodic chute of build_chute instead.
+--chute: the periodic chute of build_chute instead; --threads T: T threads on every rank.
 """
 import sys
 
@@ -87,6 +87,9 @@ def main(argv):
             print("refused:", e)
         return
     sim = tsubu.Simulation.load(load) if load else build_chute() if "--chute" in rest else build()
+    if "--threads" in rest:  # (threads per rank; the scene is too small to use them: forced)
+        sim._core.threads = int(rest[rest.index("--threads") + 1])
+        sim._core.parallel_min = 1
     if mode == "reference":
         sim.run(steps)
         record(sim, out)
