@@ -94,7 +94,8 @@ void register_boundaries(py::class_<Sim>& cls) {
   cls.def(
          "_insert_spheres",
          [](Sim& s, const Ids& ids, const Array& x, const Array& r, const IntArray& m, const Array& v,
-            const Array& w, const Array& dissipated, bool carry, std::optional<Ids> images) {
+            const Array& w, const Array& dissipated, bool carry, std::optional<Ids> images,
+            std::optional<Array> slid) {
            const std::size_t n = count_of(ids);
            check_n3(x, n, "positions");
            check_n3(v, n, "velocities");
@@ -105,10 +106,10 @@ void register_boundaries(py::class_<Sim>& cls) {
            if (images && static_cast<std::size_t>(images->size()) != 3 * n)
              throw py::value_error("images must have shape (" + std::to_string(n) + ", 3)");
            s.insert_spheres(n, ids.data(), x.data(), r.data(), m.data(), v.data(), w.data(), dissipated.data(),
-                            carry, images ? images->data() : nullptr);
+                            carry, images ? images->data() : nullptr, slid ? slid->data() : nullptr);
          },
          "ids"_a, "positions"_a, "radii"_a, "materials"_a, "velocities"_a, "angular_velocities"_a,
-         "dissipated"_a, "carry"_a = true, "images"_a = py::none())
+         "dissipated"_a, "carry"_a = true, "images"_a = py::none(), "slid"_a = py::none())
       .def(
           "_drop_spheres",
           [](Sim& s, const Ids& ids, bool carry) { s.drop_spheres(count_of(ids), ids.data(), carry); },
@@ -132,9 +133,9 @@ void register_boundaries(py::class_<Sim>& cls) {
           [](Sim& s, py::object f) {
             if (f.is_none()) return s.set_exchange({});
             // The loop calls it with the GIL released (run_checking_signals).
-            s.set_exchange([f](double vmax2) {
+            s.set_exchange([f](double vmax2, double rel2) {
               py::gil_scoped_acquire gil;
-              return f(vmax2).cast<double>();
+              return f(vmax2, rel2).cast<std::array<double, 3>>();
             });
           },
           "exchange"_a)
@@ -153,11 +154,15 @@ void register_boundaries(py::class_<Sim>& cls) {
                for (int c = 0; c < 3; ++c)
                  images.mutable_data()[3 * k + c] =
                      ps.imaged ? ps.image[3 * static_cast<std::size_t>(s.particles().index(ids.data()[k])) + c] : 0;
-             return py::make_tuple(out, images);
+             Array slid(static_cast<py::ssize_t>(n));
+             for (std::size_t k = 0; k < n; ++k)
+               slid.mutable_data()[k] =
+                   ps.imaged ? ps.slid[static_cast<std::size_t>(s.particles().index(ids.data()[k]))] : 0.0;
+             return py::make_tuple(out, images, slid);
            },
            "ids"_a)
       .def("_set_own", [](Sim& s, const Ids& ids) { s.set_own(count_of(ids), ids.data()); }, "ids"_a)
-      .def("_own_speed2", &Sim::own_speed2)
+      .def("_own_speeds", &Sim::own_speeds)
       .def_property(
           "_moved_bounds", &Sim::moved_bounds,
           [](Sim& s, std::array<double, 2> m) { s.set_moved_bounds(m[0], m[1]); })

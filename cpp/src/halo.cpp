@@ -17,7 +17,7 @@ using detail::require;
 void Simulation::insert_spheres(std::size_t n, const Id* ids, const double* positions, const double* radii,
                                 const int* materials, const double* velocities,
                                 const double* angular_velocities, const double* dissipated, bool keep,
-                                const std::int64_t* images) {
+                                const std::int64_t* images, const double* slid) {
   if (running()) throw std::logic_error("tsubu: Simulation::insert_spheres during a run");
   std::vector<char> seen;
   for (std::size_t k = 0; k < n; ++k) {
@@ -52,6 +52,8 @@ void Simulation::insert_spheres(std::size_t n, const Id* ids, const double* posi
   for (std::size_t k = 0; k < n; ++k) ps.dissipated[first + k] = dissipated[k];
   if (images && ps.imaged)
     for (std::size_t k = 0; k < 3 * n; ++k) ps.image[3 * first + k] = static_cast<decltype(ps.image)::value_type>(images[k]);
+  if (slid && ps.imaged)
+    for (std::size_t k = 0; k < n; ++k) ps.slid[first + k] = slid[k];
   const long rebuilds = lists_.rebuilds, refreshes = lists_.refreshes;
   lists_ = NeighborList();
   lists_.rebuilds = rebuilds;
@@ -114,21 +116,30 @@ void Simulation::set_own(std::size_t n, const Id* ids) {
     if (particles_.has(ids[k])) own_[static_cast<std::size_t>(ids[k])] = 1;
 }
 
-double Simulation::own_speed2() const {
+std::array<double, 3> Simulation::own_speeds() const {
   const ParticleStore& ps = particles_.arrays();
-  double top = 0;
+  double top = 0, rel = 0, most = 0;
   const std::size_t n = particles_.size();
+  const bool sheared = domain_.sheared();
+  const Domain::MeanFlow u = domain_.mean_flow();
   for (std::size_t k = 0; k < n; ++k) {
     const std::size_t id = static_cast<std::size_t>(ps.id[k]);
     if (id >= own_.size() || !own_[id]) continue;
     const double* v = ps.v.data() + 3 * k;
     top = std::max(top, v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);  // (as the particle pass)
+    if (!sheared) continue;
+    // (ParticlePass::drift's |v - u|^2, then Domain::sheared_move's, each as they compute it)
+    const double h = ps.x[3 * k + static_cast<std::size_t>(u.gradient)] - u.centre;
+    double r[3] = {v[0], v[1], v[2]};
+    r[u.flow] = v[u.flow] - u.rate * h;
+    rel = std::max(rel, r[0] * r[0] + r[1] * r[1] + r[2] * r[2]);
+    most = std::max(most, u.relative2(ps.x.data(), ps.v.data(), k));
   }
   for (std::size_t k = 0; k < fixed_.ids.size() && k < fixed_.pass_v2.size(); ++k) {
     const std::size_t id = static_cast<std::size_t>(fixed_.ids[k]);
     if (id < own_.size() && own_[id]) top = std::max(top, fixed_.pass_v2[k]);
   }
-  return top;
+  return {top, rel, most};
 }
 
 }  // namespace tsubu

@@ -41,15 +41,25 @@ def _mpi():
     return MPI
 
 
-def grid_shape(ranks: int, extent, uncut: int | None = None) -> tuple[int, int, int]:
+def grid_shape(ranks: int, extent, uncut=None) -> tuple[int, int, int]:
     """The grid (nx, ny, nz) of ``ranks`` boxes that cuts a region of lengths ``extent`` (m,
     3 values) into the most cube-like boxes: of all factorisations nx ny nz = ranks, the one
     with the least area between boxes (ties: the most cube-like boxes, then the first axes).
-    ``uncut``: an axis (0, 1, 2) not to cut (its count 1), or None."""
+    ``uncut``: an axis (0, 1, 2) or a list of axes not to cut (their counts 1), or None; where
+    every factorisation cuts them, the last of them is cut after all."""
     ranks = _checks.whole("ranks", ranks, minimum=1)
     L = np.maximum(np.asarray(extent, dtype=float).reshape(3), 1e-300)
-    if uncut is not None and uncut not in (0, 1, 2):
-        raise ValueError(f"uncut must be an axis 0, 1 or 2 (or None), got {uncut!r}")
+    axes = [] if uncut is None else [uncut] if isinstance(uncut, (int, np.integer)) else list(uncut)
+    if any(a not in (0, 1, 2) for a in axes):
+        raise ValueError(f"uncut must be an axis 0, 1 or 2, a list of them, or None; got {uncut!r}")
+    while True:
+        shape = _grid_shape(ranks, L, axes)
+        if shape is not None or not axes:
+            return shape
+        axes = axes[:-1]
+
+
+def _grid_shape(ranks, L, axes):
     best, shape = None, None
     for nx in range(1, ranks + 1):
         if ranks % nx:
@@ -58,7 +68,7 @@ def grid_shape(ranks: int, extent, uncut: int | None = None) -> tuple[int, int, 
             if (ranks // nx) % ny:
                 continue
             n = np.array([nx, ny, ranks // nx // ny], dtype=float)
-            if uncut is not None and n[uncut] != 1:
+            if any(n[a] != 1 for a in axes):
                 continue
             box = L / n
             # (the faces between boxes, summed: what the halo's volume grows with)
@@ -122,6 +132,7 @@ class Decomposed:
         self.reach = 2.0 * r_max + 0.1 * float(core.skin()) + self.margin
         self._moved = 0.0
         self._due = False
+        self._local, self._top = np.zeros(3), np.zeros(3)
         self.cuts = self._balanced_cuts(core.positions(), core.get_ids(), everywhere=True)
         # The removal log: what was removed before (every rank has it: rank 0 tells it), then
         # each rank's own spheres' removals.
@@ -226,7 +237,7 @@ class Decomposed:
         return ids, v[first], w[first]
 
     # ---- the step: the halo follows its owners ------------------------------------------------
-    def _exchange(self, vmax2: float) -> float:
+    def _exchange(self, vmax2: float, rel2: float):
         MPI = _mpi()
         core, comm = self._core, self.comm
         requests = []
@@ -240,17 +251,22 @@ class Decomposed:
         v2 = 0.0
         for q, ids in self._recv.items():
             v2 = max(v2, core._unpack_state(ids, self._recv_buffers[q]))
-        # The step's largest speed over every rank: what the lists book. In a periodic box, the
-        # largest over the spheres each rank owns, as one process finds it (it wraps spheres at
-        # rebuilds, which must fall at the same steps); elsewhere any bound will do.
-        local = core._own_speed2() if self._periodic else max(vmax2, v2)
-        top = comm.allreduce(local, op=MPI.MAX)
+        # The step's largest speeds over every rank: what the lists book. In a periodic box,
+        # the largest over the spheres each rank owns, as one process finds them (it wraps
+        # spheres at rebuilds, which must fall at the same steps); elsewhere any bound will do.
+        local = self._local
+        if self._periodic:
+            local[:] = core._own_speeds()
+        else:
+            local[0], local[1], local[2] = max(vmax2, v2), rel2, 0.0
+        top = self._top
+        comm.Allreduce(local, top, op=MPI.MAX)
         # The run stops for a redistribution before any sphere can have moved margin / 2.
-        self._moved += self._dt * math.sqrt(top)
+        self._moved += self._dt * math.sqrt(top[0])
         if self._moved > 0.5 * self.margin:
             self._due = True
             core.request_stop()
-        return top
+        return float(top[0]), float(top[1]), float(top[2])
 
     def run(self, steps: int | None = None, time: float | None = None, *, output=None,
             checkpoint=None, checkpoint_every: int | None = None,
@@ -403,7 +419,8 @@ class Decomposed:
             core._insert_spheres(arriving["ids"], arriving["x"].reshape(-1, 3), arriving["radius"],
                                  arriving["material"].astype(np.int32), arriving["v"].reshape(-1, 3),
                                  arriving["w"].reshape(-1, 3), arriving["dissipated"], carry=False,
-                                 images=arriving["images"].reshape(-1, 3) if self._periodic else None)
+                                 images=arriving["images"].reshape(-1, 3) if self._periodic else None,
+                                 slid=arriving["slid"] if self._periodic else None)
             fixed_ids, fv, fw = self._fixed
             back = np.isin(fixed_ids, arriving["ids"])
             if back.any():
@@ -544,16 +561,16 @@ class Decomposed:
         return whole
 
 
-_SPHERE_KEYS = ("ids", "x", "v", "w", "radius", "material", "dissipated", "images")
+_SPHERE_KEYS = ("ids", "x", "v", "w", "radius", "material", "dissipated", "images", "slid")
 
 
 def _raw(core, ids) -> dict:
     """The spheres ``ids`` (all held) as stored: position, velocity, spin and image counters
     (in a periodic box a sphere stays unwrapped until the next rebuild; the positions property
     reports it wrapped, which would wrap it at another step than one process does)."""
-    state, images = core._raw_state(np.asarray(ids, dtype=np.int64))
+    state, images, slid = core._raw_state(np.asarray(ids, dtype=np.int64))
     return {"ids": np.asarray(ids, dtype=np.int64), "x": state[:, 0:3], "v": state[:, 3:6],
-            "w": state[:, 6:9], "images": images}
+            "w": state[:, 6:9], "images": images, "slid": slid}
 
 
 def launched_ranks() -> int:
@@ -669,8 +686,6 @@ def decompose(simulation, comm=None, shape=None, margin: float | None = None,
         comm = MPI.COMM_WORLD
     core = simulation._core
     box = simulation.box
-    if box is not None and box.shear_rate != 0:
-        raise ValueError("decompose: a Lees-Edwards box is not cut over ranks yet (docs/parallel.md)")
     if box is not None and box.pressure is not None:
         raise ValueError("decompose: a pressure-controlled box needs the stress of every rank's "
                          "contacts each step: not cut over ranks yet (docs/parallel.md)")
@@ -703,11 +718,17 @@ def decompose(simulation, comm=None, shape=None, margin: float | None = None,
         # Under gravity the packing changes along it (a bed below, grains falling above): boxes
         # cut along it hold as many spheres but not as much work. So it is left uncut.
         g = np.abs(np.asarray(simulation.gravity, dtype=float))
-        shape = grid_shape(comm.Get_size(), extent, uncut=int(np.argmax(g)) if g.any() else None)
+        # (A Lees-Edwards flow axis first: it must stay uncut, gravity's only should.)
+        uncut = ["xyz".index(box.flow)] if box is not None and box.flow is not None else []
+        uncut += [int(np.argmax(g))] if g.any() else []
+        shape = grid_shape(comm.Get_size(), extent, uncut=uncut)
     shape = tuple(_checks.whole(f"shape[{d}]", s, minimum=1) for d, s in enumerate(shape))
     if len(shape) != 3 or int(np.prod(shape)) != comm.Get_size():
         raise ValueError(f"shape must be 3 whole numbers whose product is the number of ranks "
                          f"({comm.Get_size()}), got {shape!r}")
+    if box is not None and box.flow is not None and shape["xyz".index(box.flow)] != 1:
+        raise ValueError(f"shape {shape!r} cuts the Lees-Edwards flow axis {box.flow!r}, whose images "
+                         "slide along it: leave it uncut (1)")
     if margin is None:
         r = core.radii()
         margin = 2.0 * float(r.max()) if len(r) else 0.0

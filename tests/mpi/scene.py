@@ -8,7 +8,8 @@ spheres, removals).
     python scene.py reference STEPS OUT.npz          one process, no MPI
     mpiexec -n R python scene.py decomposed STEPS OUT.npz [--save PATH] [--load PATH]
 
---chute: the periodic chute of build_chute instead; --threads T: T threads on every rank.
+--chute: the periodic chute of build_chute instead; --shear [--fixed]: the Lees-Edwards cell
+of build_shear; --threads T: T threads on every rank.
 """
 import sys
 
@@ -62,6 +63,26 @@ def build_chute(seed=4):
     return sim
 
 
+def build_shear(fixed=False, seed=5):
+    """A Lees-Edwards cell: 432 frictional spheres in a box periodic along x, y and z, sheared
+    at 20 /s (flow x, gradient z), no gravity; ``fixed``: two spheres glued in it as well (the
+    lists then bound the motion after the fixed spheres are placed)."""
+    sim = tsubu.Simulation(gravity=(0.0, 0.0, 0.0), threads=1)
+    m = tsubu.Material(density=2500.0, youngs_modulus=5e6, poisson_ratio=0.3, restitution=0.4,
+                       friction=0.4)
+    rng = np.random.default_rng(seed)
+    n = (6, 6, 12)
+    a = 0.00205
+    g = np.stack(np.meshgrid(*[np.arange(k) for k in n], indexing="ij"), -1).reshape(-1, 3)
+    x = (g + 0.5) * a + rng.uniform(-2.5e-5, 2.5e-5, g.shape)
+    sim.add_spheres(x, rng.uniform(0.00095, 0.001, len(x)), m, velocities=rng.normal(0.0, 0.02, x.shape))
+    sim.set_box(lower=(0, 0, 0), upper=tuple(np.array(n) * a), periodic="xyz")
+    sim.set_shear(20.0, flow="x", gradient="z")
+    if fixed:
+        sim.fix_spheres([100, 300])
+    return sim
+
+
 def record(sim, path):
     c = sim.contacts()
     gone = sim.removed()
@@ -86,7 +107,8 @@ def main(argv):
         except ValueError as e:
             print("refused:", e)
         return
-    sim = tsubu.Simulation.load(load) if load else build_chute() if "--chute" in rest else build()
+    sim = (tsubu.Simulation.load(load) if load else build_chute() if "--chute" in rest
+           else build_shear("--fixed" in rest) if "--shear" in rest else build())
     if "--threads" in rest:  # (threads per rank; the scene is too small to use them: forced)
         sim._core.threads = int(rest[rest.index("--threads") + 1])
         sim._core.parallel_min = 1

@@ -74,16 +74,18 @@ class Simulation : private detail::RunHooks {
   void insert_spheres(std::size_t n, const Id* ids, const double* positions, const double* radii,
                       const int* materials, const double* velocities,
                       const double* angular_velocities, const double* dissipated, bool carry = true,
-                      const std::int64_t* images = nullptr);
+                      const std::int64_t* images = nullptr, const double* slid = nullptr);
   void drop_spheres(std::size_t count, const Id* ids, bool carry = true);
   std::size_t pack_state(std::size_t n, const Id* ids, double* out) const;
   double unpack_state(std::size_t n, const Id* ids, const double* in);
-  void set_exchange(std::function<double(double)> exchange) { exchange_ = std::move(exchange); }
+  using Exchange = std::function<std::array<double, 3>(double vmax2, double rel2)>;
+  void set_exchange(Exchange exchange) { exchange_ = std::move(exchange); }
   // The rank's own spheres (by id), and the step's max |v|^2 over them as one process finds it
   // over all (the particle pass's, a fixed sphere's before its motion is imposed included): a
   // periodic box wraps at rebuilds, which every rank must then take where one process does.
   void set_own(std::size_t n, const Id* ids);
-  double own_speed2() const;
+  // {max |v|^2, max |v - u|^2 as the particle pass, as Domain::sheared_move}, over them.
+  std::array<double, 3> own_speeds() const;
   // The lists' displacement bounds since the last rebuild and refresh (kept through a rank's
   // changes, so that it rebuilds where one process would).
   std::array<double, 2> moved_bounds() const { return {lists_.moved, lists_.moved_near}; }
@@ -445,8 +447,11 @@ class Simulation : private detail::RunHooks {
   [[noreturn]] void report_nonfinite_velocity() const override;
   [[noreturn]] void report_fast(double max_move) const override;
   void remove_outgoing() override;
-  double exchange_ghosts(double vmax2) override { return exchange_(vmax2); }
-  std::function<double(double)> exchange_;
+  void exchange_ghosts(double& vmax2, double& rel2, double& most) override {
+    const std::array<double, 3> all = exchange_(vmax2, rel2);
+    vmax2 = all[0], rel2 = all[1], most = domain_.sheared() ? all[2] : -1.0;
+  }
+  Exchange exchange_;
   std::vector<char> own_;  // (set_own: by id)
   // remove_spheres without the checks of the ids and of a run, logging the spheres removed by
   // outlet `outlet[k]` (-1: by remove_spheres).

@@ -93,7 +93,8 @@ struct Stepper {
       if (s.fixed) vmax2 = std::max(vmax2, s.fixed->after(s.particles, dt));
       // A rank's halo takes its owners' state here; the hook answers the step's max |v|^2 of
       // the whole scene (over every rank), which the lists book.
-      if (s.exchange) vmax2 = s.hooks.exchange_ghosts(vmax2);
+      double most = -1;  // a rank's max |v - u|^2 after the fixed spheres' motion (streaming)
+      if (s.exchange) s.hooks.exchange_ghosts(vmax2, rel2, most);
       run.last_move = std::sqrt(vmax2) * dt;  // the distance any particle moved: dt max|v|
       // (A Lees–Edwards image also moves at the slide's speed: a pair across the sheared faces
       // closes by at most 2 moved + slide, so each sphere books half the slide; without walls,
@@ -102,7 +103,9 @@ struct Stepper {
       // are placed after it.)
       if (!periodic) lists.book_moved(run.last_move);
       else if (pv.relative) lists.book_moved(s.domain.sheared_bound(rel2, dt));
-      else if (streaming) lists.book_moved(s.domain.sheared_move(s.particles.arrays(), s.particles.size(), dt));
+      else if (streaming)
+        lists.book_moved(most >= 0 ? s.domain.sheared_bound(most, dt)
+                                   : s.domain.sheared_move(s.particles.arrays(), s.particles.size(), dt));
       else lists.book_moved(run.last_move + 0.5 * dt * s.domain.shear_speed());
       if (nonfinite) s.hooks.report_nonfinite_velocity();
       if (periodic) {

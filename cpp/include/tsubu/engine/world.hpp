@@ -96,10 +96,11 @@ class RunHooks {
   // At the end of a step of a scene with outlets (World::outlets): removes the spheres they
   // take (docs/boundaries.md).
   virtual void remove_outgoing() {}
-  // After a step's particle pass, with its max |v|^2, in a decomposed scene (World::exchange):
-  // the halo's spheres take their owners' state; returns the max |v|^2 the lists then book (at
-  // least that of every sphere the rank holds).
-  virtual double exchange_ghosts(double) { return 0; }
+  // After a step's particle pass (and the fixed spheres' motion) in a decomposed scene
+  // (World::exchange): the halo's spheres take their owners' state, and the step's max |v|^2
+  // (`vmax2`), max |v - u|^2 as the pass finds it (`rel2`) and as Domain::sheared_move does
+  // (`most`, set >= 0 in a streaming box) become those of the whole scene, which the lists book.
+  virtual void exchange_ghosts(double& /*vmax2*/, double& /*rel2*/, double& /*most*/) {}
 
  protected:
   ~RunHooks() = default;
