@@ -77,6 +77,32 @@ def test_two_ranks_of_two_threads_give_the_bits_of_one_process(reference, tmp_pa
     _same(reference, out)
 
 
+@pytest.mark.slow
+@needs_mpiexec
+def test_spheres_added_by_parts_give_the_bits_of_one_process_adding_them_all(tmp_path):
+    # No rank builds the whole scene: each adds its share after decompose.
+    _run(["reference", STEPS // 2, tmp_path / "one.npz", "--parts"])
+    for ranks in (2, 3):
+        _run(["decomposed", STEPS // 2, tmp_path / f"parts{ranks}.npz", "--parts"], ranks=ranks)
+        _same(tmp_path / "one.npz", tmp_path / f"parts{ranks}.npz")
+
+
+@pytest.mark.slow
+def test_adding_by_parts_needs_the_defaults_that_all_spheres_decide():
+    from mpi4py import MPI
+    sys.path.insert(0, str(SCENE.parent))
+    import scene
+
+    import tsubu
+    empty = tsubu.Simulation(gravity=(0, 0, -9.81), dt=1e-6)  # (skin and impact_speed not set)
+    with pytest.raises(ValueError, match="skin, impact_speed set"):
+        parallel.decompose(empty, comm=MPI.COMM_SELF)
+    sim = scene.build()  # (defaults: taken from its spheres when decomposed, not given)
+    part = parallel.decompose(sim, comm=MPI.COMM_SELF)
+    with pytest.raises(ValueError, match="needs the scene's dt, skin, impact_speed set"):
+        part.add_spheres([[0.01, 0.01, 0.05]], 0.001, sim.materials[0])
+
+
 @pytest.fixture(scope="module")
 def chute_reference(tmp_path_factory):
     out = tmp_path_factory.mktemp("mpi") / "chute.npz"

@@ -95,7 +95,7 @@ void register_boundaries(py::class_<Sim>& cls) {
          "_insert_spheres",
          [](Sim& s, const Ids& ids, const Array& x, const Array& r, const IntArray& m, const Array& v,
             const Array& w, const Array& dissipated, bool carry, std::optional<Ids> images,
-            std::optional<Array> slid) {
+            std::optional<Array> slid, bool check) {
            const std::size_t n = count_of(ids);
            check_n3(x, n, "positions");
            check_n3(v, n, "velocities");
@@ -106,10 +106,10 @@ void register_boundaries(py::class_<Sim>& cls) {
            if (images && static_cast<std::size_t>(images->size()) != 3 * n)
              throw py::value_error("images must have shape (" + std::to_string(n) + ", 3)");
            s.insert_spheres(n, ids.data(), x.data(), r.data(), m.data(), v.data(), w.data(), dissipated.data(),
-                            carry, images ? images->data() : nullptr, slid ? slid->data() : nullptr);
+                            carry, images ? images->data() : nullptr, slid ? slid->data() : nullptr, check);
          },
          "ids"_a, "positions"_a, "radii"_a, "materials"_a, "velocities"_a, "angular_velocities"_a,
-         "dissipated"_a, "carry"_a = true, "images"_a = py::none(), "slid"_a = py::none())
+         "dissipated"_a, "carry"_a = true, "images"_a = py::none(), "slid"_a = py::none(), "check"_a = false)
       .def(
           "_drop_spheres",
           [](Sim& s, const Ids& ids, bool carry) { s.drop_spheres(count_of(ids), ids.data(), carry); },

@@ -17,7 +17,7 @@ using detail::require;
 void Simulation::insert_spheres(std::size_t n, const Id* ids, const double* positions, const double* radii,
                                 const int* materials, const double* velocities,
                                 const double* angular_velocities, const double* dissipated, bool keep,
-                                const std::int64_t* images, const double* slid) {
+                                const std::int64_t* images, const double* slid, bool check) {
   if (running()) throw std::logic_error("tsubu: Simulation::insert_spheres during a run");
   std::vector<char> seen;
   for (std::size_t k = 0; k < n; ++k) {
@@ -54,6 +54,8 @@ void Simulation::insert_spheres(std::size_t n, const Id* ids, const double* posi
     for (std::size_t k = 0; k < 3 * n; ++k) ps.image[3 * first + k] = static_cast<decltype(ps.image)::value_type>(images[k]);
   if (slid && ps.imaged)
     for (std::size_t k = 0; k < n; ++k) ps.slid[first + k] = slid[k];
+  if (ran_ && check)  // (new spheres: the next run checks their overlaps, as add_spheres's)
+    for (std::size_t k = 0; k < n; ++k) mark_unchecked(particles_.index(ids[k]), true);
   const long rebuilds = lists_.rebuilds, refreshes = lists_.refreshes;
   lists_ = NeighborList();
   lists_.rebuilds = rebuilds;

@@ -126,10 +126,14 @@ class Decomposed:
         self._lower = None if box is None else np.asarray(box.lower, dtype=float)
         self._upper = None if box is None else np.asarray(box.upper, dtype=float)
         radii = core.radii()
-        r_max = comm.allreduce(float(radii.max()) if len(radii) else 0.0, op=_mpi().MAX)
+        self._r_max = comm.allreduce(float(radii.max()) if len(radii) else 0.0, op=_mpi().MAX)
         # (A contact reaches at most r_i + r_j, a sticky one up to the near list's skin / 10
         # further.)
-        self.reach = 2.0 * r_max + 0.1 * float(core.skin()) + self.margin
+        self.reach = 2.0 * self._r_max + 0.1 * float(core.skin()) + self.margin
+        # One past the largest id handed out (ids are never reused): the next added sphere's id.
+        removed = core.removed()["id"]
+        self._id_bound = int(max([int(core.get_ids().max()) + 1 if core.size else 0] +
+                                 [int(removed.max()) + 1 if len(removed) else 0]))
         self._moved = 0.0
         self._due = False
         self._local, self._top = np.zeros(3), np.zeros(3)
@@ -221,6 +225,9 @@ class Decomposed:
             mine = owner == q
             if mine.any():
                 self._recv[q] = np.sort(ids[mine])
+        self._buffers()
+
+    def _buffers(self) -> None:
         if self._periodic:
             self._core._set_own(self._owned)
         self._send_buffers = {q: np.empty(9 * len(v)) for q, v in self._send.items()}
@@ -406,6 +413,99 @@ class Decomposed:
                 core._set_exchange(self._exchange)
 
     # ---- moving spheres between ranks -----------------------------------------------------------
+    def add_spheres(self, positions, radius, material, velocities=None,
+                    angular_velocities=None) -> np.ndarray:
+        """Add spheres to the decomposed scene, each rank its own share (a collective call: every
+        rank calls it, with any number of spheres, none included). The spheres go to the ranks
+        that hold them; no rank holds the whole scene. The result is that of one process adding
+        rank 0's spheres, then rank 1's, and so on, in one call of
+        :meth:`tsubu.Simulation.add_spheres`: the same ids, the same bits afterwards.
+
+        Parameters
+        ----------
+        positions, radius, material, velocities, angular_velocities
+            As :meth:`tsubu.Simulation.add_spheres`, this rank's share.
+
+        Returns
+        -------
+        numpy.ndarray of int64
+            The ids of this rank's share (consecutive; rank 0's come first).
+
+        Raises
+        ------
+        ValueError
+            As :meth:`tsubu.Simulation.add_spheres`; and for a scene whose ``dt``, ``skin`` or
+            ``impact_speed`` was not set when it was decomposed (their defaults are taken from
+            all the spheres, which no rank holds).
+        """
+        from .material import Material
+        from .simulation import _check_mass, _energies_fit
+
+        core, comm, me = self._core, self.comm, self._rank
+        missing = [k for k, v in getattr(self, "_given", {}).items() if not v]
+        if missing:
+            raise ValueError(f"add_spheres over ranks needs the scene's {', '.join(missing)} set before "
+                             "decompose (Simulation(dt=..., skin=..., impact_speed=...)): their defaults "
+                             "are taken from all the spheres, which no rank holds")
+        x = _checks.points("positions", positions)
+        n = x.shape[0]
+        r = _checks.radii("radius", radius, n)
+        if not isinstance(material, Material):
+            raise TypeError(f"material must be a tsubu.Material, got {material!r}")
+        mass = _check_mass(r, material)
+        mat = self.simulation._material(material, scene=True)
+        v = np.zeros((n, 3)) if velocities is None else _checks.points("velocities", velocities, n)
+        w = np.zeros((n, 3)) if angular_velocities is None else _checks.points("angular_velocities",
+                                                                              angular_velocities, n)
+        _energies_fit("positions", mass, r, x=x, g=self.simulation.gravity)
+        _energies_fit("velocities", mass, r, v=v)
+        _energies_fit("angular_velocities", mass, r, w=w)
+        counts = comm.allgather(n)
+        first = self._id_bound + sum(counts[:me])
+        ids = np.arange(first, first + n, dtype=np.int64)
+        self._id_bound += sum(counts)
+        self._r_max = max(self._r_max, comm.allreduce(float(r.max()) if n else 0.0, op=_mpi().MAX))
+        if self._margin_default:
+            self.margin = 2.0 * self._r_max
+        self.reach = 2.0 * self._r_max + 0.1 * float(core.skin()) + self.margin
+        owner = self.owner_of(x)
+        outgoing = []
+        for q in range(self._size):
+            there = self._present(x, owner, q)
+            outgoing.append({"ids": ids[there], "x": x[there], "v": v[there], "w": w[there],
+                             "radius": r[there], "material": np.full(int(there.sum()), mat, np.int32)})
+        got = {k: np.concatenate([m[k] for m in comm.alltoall(outgoing)]) for k in outgoing[0]}
+        pairs, walls = core.contact_state(False), core.contact_state(True)
+        k = len(got["ids"])
+        if k:
+            core._insert_spheres(got["ids"], got["x"].reshape(-1, 3), got["radius"], got["material"],
+                                 got["v"].reshape(-1, 3), got["w"].reshape(-1, 3), np.zeros(k), carry=False,
+                                 images=np.zeros((k, 3), np.int64), slid=np.zeros(k), check=True)
+            fixed_ids, fv, fw = self._fixed
+            back = np.isin(fixed_ids, got["ids"])
+            if back.any():
+                core.fix_spheres(fixed_ids[back], fv[back], fw[back])
+        # One process's next run rebuilds its lists, wrapping the spheres into a periodic box:
+        # every rank does it now.
+        core.set_contact_state(pairs, walls, wrap=True)
+        # The new spheres join the lists as the spheres held where they were sent (the lists of
+        # the others stay those of the last redistribution), then the cuts move with the load.
+        gx = got["x"].reshape(-1, 3)
+        gown = self.owner_of(gx)
+        self._owned = np.union1d(self._owned, got["ids"][gown == me])
+        for q in range(self._size):
+            if q == me:
+                continue
+            mine = (gown == me) & self._present(gx, gown, q)
+            if mine.any():
+                self._send[q] = np.union1d(self._send.get(q, np.zeros(0, np.int64)), got["ids"][mine])
+            theirs = gown == q
+            if theirs.any():
+                self._recv[q] = np.union1d(self._recv.get(q, np.zeros(0, np.int64)), got["ids"][theirs])
+        self._buffers()
+        self.redistribute(balance=True)
+        return ids
+
     def _reshape(self, leaving, arriving, pairs, walls) -> None:
         """Drops the spheres ``leaving`` (ids), inserts ``arriving`` (a dict of arrays, or
         None), and sets the contacts ``pairs`` and ``walls`` (contact_state dicts): one rebuild
@@ -709,9 +809,17 @@ def decompose(simulation, comm=None, shape=None, margin: float | None = None,
     # What the scene's spheres decide by default (the step, the skin) is fixed now, from the
     # whole scene, so that no rank's part decides it otherwise. (The characteristic impact
     # speed is fixed by the first run, prepare_run, and kept through the halo's changes.)
-    core.prepare_run()
-    core.dt = float(core.time_step())
-    core.skin_option = float(core.skin())
+    given = {"dt": core.dt > 0, "skin": core.skin_option > 0, "impact_speed": core.impact_speed > 0}
+    if len(ids) == 0:
+        missing = [k for k, v in given.items() if not v]
+        if missing:
+            raise ValueError(f"decompose: a scene without spheres (to be added by parts, "
+                             f"Decomposed.add_spheres) needs {', '.join(missing)} set: their defaults are "
+                             "taken from all the spheres")
+    else:
+        core.prepare_run()
+        core.dt = float(core.time_step())
+        core.skin_option = float(core.skin())
     if shape is None:
         x = core.positions()
         extent = x.max(axis=0) - x.min(axis=0) if len(x) else np.ones(3)
@@ -738,4 +846,7 @@ def decompose(simulation, comm=None, shape=None, margin: float | None = None,
         imbalance = _checks.positive("imbalance", imbalance)
         if imbalance <= 1:
             raise ValueError(f"imbalance must be > 1 (or None), got {imbalance!r}")
-    return Decomposed(simulation, comm, shape, margin, imbalance)
+    part = Decomposed(simulation, comm, shape, margin, imbalance)
+    part._given = given
+    part._margin_default = margin is None or margin == 0.0
+    return part

@@ -83,6 +83,25 @@ def build_shear(fixed=False, seed=5):
     return sim
 
 
+def build_parts(rank=0, ranks=1, seed=6):
+    """The frictional pack of build() in a box of planes, its spheres given by parts: rank k of
+    `ranks` adds the k-th share (one process: all of them at once). dt, skin and impact_speed
+    are set: their defaults are taken from all the spheres."""
+    sim = tsubu.Simulation(gravity=(0.0, 0.0, -9.81), threads=1, dt=4e-6, skin=4e-4, impact_speed=1.0)
+    m = tsubu.Material(density=2500.0, youngs_modulus=5e6, poisson_ratio=0.3, restitution=0.4,
+                       friction=0.4)
+    for point, normal in (((0, 0, 0), (0, 0, 1)), ((0, 0, 0), (1, 0, 0)), ((0, 0, 0), (0, 1, 0)),
+                          ((0.024, 0, 0), (-1, 0, 0)), ((0, 0.024, 0), (0, -1, 0))):
+        sim.add_plane(point=point, normal=normal, material=m)
+    rng = np.random.default_rng(seed)
+    g = np.stack(np.meshgrid(np.arange(8), np.arange(8), np.arange(8), indexing="ij"), -1).reshape(-1, 3)
+    x = 0.0026 * g + 0.0015 + rng.uniform(-1e-4, 1e-4, g.shape)
+    r = rng.uniform(0.0009, 0.0011, len(x))
+    v = rng.normal(0.0, 0.05, x.shape)
+    share = np.array_split(np.arange(len(x)), ranks)[rank]
+    return sim, (x[share], r[share], m, v[share])
+
+
 def record(sim, path):
     c = sim.contacts()
     gone = sim.removed()
@@ -112,6 +131,28 @@ def main(argv):
     if "--threads" in rest:  # (threads per rank; the scene is too small to use them: forced)
         sim._core.threads = int(rest[rest.index("--threads") + 1])
         sim._core.parallel_min = 1
+    if "--parts" in rest:  # the spheres added by parts, after decompose (one process: at once)
+        rank, ranks = 0, 1
+        if mode != "reference":
+            from mpi4py import MPI
+            rank, ranks = MPI.COMM_WORLD.Get_rank(), MPI.COMM_WORLD.Get_size()
+        sim, (x, r, m, v) = build_parts(rank, ranks)
+        if mode == "reference":
+            sim.add_spheres(x, r, m, velocities=v)
+        else:
+            from tsubu import parallel
+
+            d = parallel.decompose(sim)
+            d.add_spheres(x, r, m, velocities=v)
+            d.run(steps)
+            whole = d.gather()
+            if whole is not None:
+                record(whole, out)
+                print("redistributions", d.redistributions, "balances", d.balances, "owned",
+                      MPI.COMM_WORLD.gather(len(d.owned)))
+            else:
+                MPI.COMM_WORLD.gather(len(d.owned))
+            return
     if mode == "reference":
         sim.run(steps)
         record(sim, out)

@@ -65,32 +65,27 @@ class Simulation : private detail::RunHooks {
   // id, std::logic_error during a run.
   void remove_spheres(std::size_t count, const Id* ids);
   // ---- a rank's part of a decomposed scene (halo.cpp, docs/parallel.md) ---------------------
-  // Spheres in and out under their global ids (insert: each unused, with its state, unchecked,
-  // unlogged; drop: unlogged), their contacts carried unless carry is false (the caller then
-  // sets the contact state); pack/unpack x, v, w (9 values a sphere) of the listed ids, skipping
-  // ids not held (unpack returns the largest |v|^2 written). The exchange is called by the loop
-  // after each particle pass with its max |v|^2 and returns the halo's; while one is set, no
-  // passes fuse and the energy audit is off. InvalidArgument for a bad id.
+  // insert/drop: spheres in and out under their global ids, unlogged, contacts carried unless
+  // carry is false (the caller sets them); insert's are unchecked unless check. pack/unpack:
+  // x, v, w (9 values a sphere) of the ids held. The loop calls the exchange after each particle
+  // pass (RunHooks::exchange_ghosts); while one is set, no passes fuse and the audit is off.
+  // own_speeds: {max |v|^2, max |v - u|^2 as the particle pass and as Domain::sheared_move find
+  // them} over the rank's own spheres (set_own), as one process over all. moved_bounds: the
+  // lists' displacement bounds (kept through a rank's changes: it rebuilds where one process does).
   void insert_spheres(std::size_t n, const Id* ids, const double* positions, const double* radii,
-                      const int* materials, const double* velocities,
-                      const double* angular_velocities, const double* dissipated, bool carry = true,
-                      const std::int64_t* images = nullptr, const double* slid = nullptr);
+                      const int* materials, const double* velocities, const double* angular_velocities,
+                      const double* dissipated, bool carry = true, const std::int64_t* images = nullptr,
+                      const double* slid = nullptr, bool check = false);
   void drop_spheres(std::size_t count, const Id* ids, bool carry = true);
   std::size_t pack_state(std::size_t n, const Id* ids, double* out) const;
   double unpack_state(std::size_t n, const Id* ids, const double* in);
   using Exchange = std::function<std::array<double, 3>(double vmax2, double rel2)>;
   void set_exchange(Exchange exchange) { exchange_ = std::move(exchange); }
-  // The rank's own spheres (by id), and the step's max |v|^2 over them as one process finds it
-  // over all (the particle pass's, a fixed sphere's before its motion is imposed included): a
-  // periodic box wraps at rebuilds, which every rank must then take where one process does.
+  bool has_exchange() const { return static_cast<bool>(exchange_); }
   void set_own(std::size_t n, const Id* ids);
-  // {max |v|^2, max |v - u|^2 as the particle pass, as Domain::sheared_move}, over them.
   std::array<double, 3> own_speeds() const;
-  // The lists' displacement bounds since the last rebuild and refresh (kept through a rank's
-  // changes, so that it rebuilds where one process would).
   std::array<double, 2> moved_bounds() const { return {lists_.moved, lists_.moved_near}; }
   void set_moved_bounds(double moved, double moved_near) { lists_.moved = moved, lists_.moved_near = moved_near; }
-  bool has_exchange() const { return static_cast<bool>(exchange_); }
   const Particles& particles() const { return particles_; }
   Id add_sphere(const Vec3& position, double radius, int material,
                 const Vec3& velocity = Vec3::Zero(), const Vec3& angular_velocity = Vec3::Zero());
