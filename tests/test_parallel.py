@@ -88,12 +88,30 @@ def test_spheres_added_by_parts_give_the_bits_of_one_process_adding_them_all(tmp
 
 
 @pytest.mark.slow
+@needs_mpiexec
+def test_an_inserter_pours_over_ranks_as_in_one_process(tmp_path):
+    # Each event places its spheres against every sphere of the scene, on every rank alike;
+    # rank 0 adds them (ids as one process hands them out). Also through a checkpoint.
+    _run(["reference", STEPS // 2, tmp_path / "one.npz", "--pour"])
+    ref = np.load(tmp_path / "one.npz")
+    assert ref["inserted"][0] > 100
+    _run(["decomposed", STEPS // 2, tmp_path / "two.npz", "--pour"], ranks=2)
+    _same(tmp_path / "one.npz", tmp_path / "two.npz")
+    saved = tmp_path / "three.tsubu"
+    _run(["decomposed", STEPS // 4, tmp_path / "three.npz", "--save", saved, "--pour"], ranks=3)
+    _run(["decomposed", STEPS // 2 - STEPS // 4, tmp_path / "two_more.npz", "--load", saved, "--pour"],
+         ranks=2)
+    _same(tmp_path / "one.npz", tmp_path / "two_more.npz")
+
+
+@pytest.mark.slow
 def test_adding_by_parts_needs_the_defaults_that_all_spheres_decide():
     from mpi4py import MPI
     sys.path.insert(0, str(SCENE.parent))
     import scene
 
     import tsubu
+    import tsubu.fill
     empty = tsubu.Simulation(gravity=(0, 0, -9.81), dt=1e-6)  # (skin and impact_speed not set)
     with pytest.raises(ValueError, match="skin, impact_speed set"):
         parallel.decompose(empty, comm=MPI.COMM_SELF)
@@ -101,6 +119,11 @@ def test_adding_by_parts_needs_the_defaults_that_all_spheres_decide():
     part = parallel.decompose(sim, comm=MPI.COMM_SELF)
     with pytest.raises(ValueError, match="needs the scene's dt, skin, impact_speed set"):
         part.add_spheres([[0.01, 0.01, 0.05]], 0.001, sim.materials[0])
+    pour = scene.build()
+    pour.add_inserter(tsubu.fill.Box((0.002, 0.002, 0.03), (0.02, 0.02, 0.035)), rate=100.0, sizes=0.001,
+                      material=pour.materials[0])
+    with pytest.raises(ValueError, match="inserters needs dt, skin, impact_speed set"):
+        parallel.decompose(pour, comm=MPI.COMM_SELF)
 
 
 @pytest.fixture(scope="module")

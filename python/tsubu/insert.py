@@ -242,6 +242,24 @@ class Inserter:
 
     def act(self, sim) -> None:
         """Insert what is due at this event (and what earlier events left pending)."""
+        positions, radii, placed, due = self._plan(sim)
+        if placed.any():
+            # (placed clear of the spheres here: left out of the next run's overlap check, which
+            # would otherwise refuse those that the region puts into a wall)
+            ids = sim._add_spheres(
+                positions[placed], radii[placed], self.material,
+                velocities=np.tile(self.velocity, (int(placed.sum()), 1)),
+                angular_velocities=np.tile(self.angular_velocity, (int(placed.sum()), 1)),
+                check_overlaps=False)
+            self._inserted += len(ids)
+            self._inserted_mass += float(np.sum(sim.masses[sim.rows(ids)]))
+        self._carry(radii, placed, due)
+
+    def _plan(self, sim, existing=None):
+        """This event's spheres: (positions, radii, placed, due), the inserter's event counter
+        moved on (``act`` adds the placed ones, then ``_carry``). ``existing``: the (positions,
+        radii) of every sphere of the scene in id order, where ``sim`` holds only some (a rank of
+        a decomposed scene, tsubu.parallel); default ``sim``'s."""
         interval = self._resolve_interval(sim)
         slack = _STEP_SLACK * sim.dt if math.isfinite(sim.dt) else 0.0
         reached = math.floor((sim.time - self.start + slack) / interval)
@@ -260,38 +278,36 @@ class Inserter:
                 "spheres per event)")
         self._event = event + 1
         if due == 0:
-            self._pending = 0
-            return
+            return np.zeros((0, 3)), np.zeros(0), np.zeros(0, dtype=bool), 0
         radii = self._head(due).copy()
         # spheres carried over go first, then the new ones; largest first within each
         carried = min(self._pending, due)
         order = np.concatenate([np.argsort(-radii[:carried], kind="stable"),
                                 carried + np.argsort(-radii[carried:], kind="stable")])
-        positions, placed = self._place(sim, radii, order)
-        if placed.any():
-            # (placed clear of the spheres here: left out of the next run's overlap check, which
-            # would otherwise refuse those that the region puts into a wall)
-            ids = sim._add_spheres(
-                positions[placed], radii[placed], self.material,
-                velocities=np.tile(self.velocity, (int(placed.sum()), 1)),
-                angular_velocities=np.tile(self.angular_velocity, (int(placed.sum()), 1)),
-                check_overlaps=False)
-            self._inserted += len(ids)
-            self._inserted_mass += float(np.sum(sim.masses[sim.rows(ids)]))
-        # what found no room stays at the head of the queue, in stream order
+        positions, placed = self._place(sim, radii, order, existing)
+        return positions, radii, placed, due
+
+    def _carry(self, radii, placed, due) -> None:
+        """What found no room stays at the head of the queue, in stream order."""
+        if due == 0:
+            self._pending = 0
+            return
         self._queue = np.concatenate([radii[~placed], self._queue[due:]])
         self._pending = int(np.count_nonzero(~placed))
 
     def close(self, sim) -> None:
         """Nothing to flush."""
 
-    def _place(self, sim, radii, order):
+    def _place(self, sim, radii, order, existing=None):
         """Positions for ``radii`` in the region clear of the simulation's spheres (NaN where no
         room was found) and which were placed, trying them in ``order``."""
         region = self.region
         largest = float(radii.max())
-        existing_x = sim.positions if sim.size else np.zeros((0, 3))
-        existing_r = sim.radii if sim.size else np.zeros(0)
+        if existing is not None:
+            existing_x, existing_r = existing
+        else:
+            existing_x = sim.positions if sim.size else np.zeros((0, 3))
+            existing_r = sim.radii if sim.size else np.zeros(0)
         reach = largest + (float(existing_r.max()) if len(existing_r) else largest)
         lower, upper = region.lower - reach, region.upper + reach
         near = np.all((existing_x >= lower) & (existing_x <= upper), axis=1)

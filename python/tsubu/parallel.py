@@ -322,7 +322,9 @@ class Decomposed:
             periodic = [_hooks.PeriodicCheckpoint(_checks.path("checkpoint", checkpoint),
                                                   _checks.whole("checkpoint_every", checkpoint_every, minimum=1),
                                                   _checks.whole("checkpoint_keep", checkpoint_keep, minimum=1))]
-        everywhere = [h for h in outputs if getattr(h, "acts_on_every_rank", False)]
+        # (The scene's inserters first, as Simulation.run runs them: an event on every rank.)
+        everywhere = [_InsertEvents(self, i) for i in self.simulation.inserters]
+        everywhere += [h for h in outputs if getattr(h, "acts_on_every_rank", False)]
         observers = [h for h in outputs if h not in everywhere] + periodic
         root = self._rank == 0
         end = core.step_count + steps
@@ -414,7 +416,7 @@ class Decomposed:
 
     # ---- moving spheres between ranks -----------------------------------------------------------
     def add_spheres(self, positions, radius, material, velocities=None,
-                    angular_velocities=None) -> np.ndarray:
+                    angular_velocities=None, _check: bool = True) -> np.ndarray:
         """Add spheres to the decomposed scene, each rank its own share (a collective call: every
         rank calls it, with any number of spheres, none included). The spheres go to the ranks
         that hold them; no rank holds the whole scene. The result is that of one process adding
@@ -480,7 +482,7 @@ class Decomposed:
         if k:
             core._insert_spheres(got["ids"], got["x"].reshape(-1, 3), got["radius"], got["material"],
                                  got["v"].reshape(-1, 3), got["w"].reshape(-1, 3), np.zeros(k), carry=False,
-                                 images=np.zeros((k, 3), np.int64), slid=np.zeros(k), check=True)
+                                 images=np.zeros((k, 3), np.int64), slid=np.zeros(k), check=_check)
             fixed_ids, fv, fw = self._fixed
             back = np.isin(fixed_ids, got["ids"])
             if back.any():
@@ -505,6 +507,31 @@ class Decomposed:
         self._buffers()
         self.redistribute(balance=True)
         return ids
+
+    def _insert(self, inserter) -> None:
+        """An event of one of the scene's inserters, on every rank alike: it places its spheres
+        against every sphere of the scene (gathered from their owners, in id order), rank 0 adds
+        them (ids as one process hands them out) and each rank takes those it holds."""
+        core, comm = self._core, self.comm
+        ids = core.get_ids()
+        own = np.isin(ids, self._owned, assume_unique=True)
+        parts = comm.allgather((ids[own], core.positions()[own], core.radii()[own]))
+        every = np.concatenate([p[0] for p in parts])
+        order = np.argsort(every, kind="stable")
+        existing = (np.concatenate([p[1] for p in parts]).reshape(-1, 3)[order],
+                    np.concatenate([p[2] for p in parts])[order])
+        positions, radii, placed, due = inserter._plan(self.simulation, existing=existing)
+        n = int(placed.sum()) if self._rank == 0 else 0
+        x = positions[placed] if n else np.zeros((0, 3))
+        r = radii[placed] if n else np.zeros(0)
+        self.add_spheres(x, r, inserter.material, velocities=np.tile(inserter.velocity, (n, 1)),
+                         angular_velocities=np.tile(inserter.angular_velocity, (n, 1)), _check=False)
+        if placed.any():
+            inserter._inserted += int(placed.sum())
+            # (the masses as the core computes them, summed as Simulation.masses would be)
+            rp = radii[placed]
+            inserter._inserted_mass += float(np.sum(inserter.material.density * 4.0 / 3.0 * np.pi * rp * rp * rp))
+        inserter._carry(radii, placed, due)
 
     def _reshape(self, leaving, arriving, pairs, walls) -> None:
         """Drops the spheres ``leaving`` (ids), inserts ``arriving`` (a dict of arrays, or
@@ -661,6 +688,23 @@ class Decomposed:
         return whole
 
 
+class _InsertEvents:
+    """An inserter of a decomposed scene as a run hook acting on every rank."""
+    acts_on_every_rank = True
+
+    def __init__(self, part, inserter):
+        self.part, self.inserter = part, inserter
+
+    def next_step(self, sim):
+        return self.inserter.next_step(sim)
+
+    def act(self, sim) -> None:
+        self.part._insert(self.inserter)
+
+    def close(self, sim) -> None:
+        pass
+
+
 _SPHERE_KEYS = ("ids", "x", "v", "w", "radius", "material", "dissipated", "images", "slid")
 
 
@@ -789,8 +833,6 @@ def decompose(simulation, comm=None, shape=None, margin: float | None = None,
     if box is not None and box.pressure is not None:
         raise ValueError("decompose: a pressure-controlled box needs the stress of every rank's "
                          "contacts each step: not cut over ranks yet (docs/parallel.md)")
-    if simulation.inserters:
-        raise ValueError("decompose: inserters are not run over ranks yet: insert before decomposing")
     for k in range(simulation.wall_count):
         if simulation.wall(k).get("servo") is not None:
             raise ValueError(f"decompose: wall {k} is a servo wall, which needs the force of every "
@@ -810,6 +852,12 @@ def decompose(simulation, comm=None, shape=None, margin: float | None = None,
     # whole scene, so that no rank's part decides it otherwise. (The characteristic impact
     # speed is fixed by the first run, prepare_run, and kept through the halo's changes.)
     given = {"dt": core.dt > 0, "skin": core.skin_option > 0, "impact_speed": core.impact_speed > 0}
+    if simulation.inserters:
+        missing = [k for k, v in given.items() if not v]
+        if missing:
+            raise ValueError(f"decompose: a scene with inserters needs {', '.join(missing)} set "
+                             "(Simulation(dt=..., skin=..., impact_speed=...)): one process takes their "
+                             "defaults again from all the spheres after each insertion")
     if len(ids) == 0:
         missing = [k for k, v in given.items() if not v]
         if missing:

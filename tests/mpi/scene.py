@@ -102,10 +102,24 @@ def build_parts(rank=0, ranks=1, seed=6):
     return sim, (x[share], r[share], m, v[share])
 
 
+def build_pour():
+    """build_parts's box with its first 200 spheres, and an inserter pouring more from above."""
+    import tsubu.fill
+
+    sim, (x, r, m, v) = build_parts()
+    sim.add_spheres(x[:200], r[:200], m, velocities=v[:200])
+    sim.add_inserter(tsubu.fill.Box((0.002, 0.002, 0.03), (0.022, 0.022, 0.038)), rate=20000.0,
+                     sizes=0.001, material=m, velocity=(0.0, 0.0, -0.5), seed=3)
+    return sim
+
+
 def record(sim, path):
     c = sim.contacts()
     gone = sim.removed()
     extra = {"images": sim.images} if sim.box is not None else {}
+    if sim.inserters:
+        extra["inserted"] = [i.inserted for i in sim.inserters]
+        extra["inserted_mass"] = [i.inserted_mass for i in sim.inserters]
     np.savez(path, **extra, removed_id=gone["id"], removed_step=gone["step"], removed_x=gone["position"], ids=sim.ids, x=sim.positions, v=sim.velocities, w=sim.angular_velocities,
              forces=sim.forces, dissipated=sim._core.dissipated(), step=sim.step_count,
              ci=c["i"], cj=c["j"], cwall=c["wall"], cxi=c["tangential_displacement"], cf=c["force"])
@@ -127,7 +141,8 @@ def main(argv):
             print("refused:", e)
         return
     sim = (tsubu.Simulation.load(load) if load else build_chute() if "--chute" in rest
-           else build_shear("--fixed" in rest) if "--shear" in rest else build())
+           else build_shear("--fixed" in rest) if "--shear" in rest
+           else build_pour() if "--pour" in rest else build())
     if "--threads" in rest:  # (threads per rank; the scene is too small to use them: forced)
         sim._core.threads = int(rest[rest.index("--threads") + 1])
         sim._core.parallel_min = 1
