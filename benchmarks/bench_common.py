@@ -63,13 +63,18 @@ def load_state(path: str) -> dict:
 def run_child(script: str, arguments: list[str]) -> dict:
     """Runs ``script`` with ``arguments`` in a fresh one-thread process and returns the JSON it
     printed on its ``RESULT`` line (the paired benchmarks' child runs)."""
+    import sys
+    return run_result([sys.executable, os.path.abspath(script)] + arguments,
+                      dict(os.environ, OMP_NUM_THREADS="1"))
+
+
+def run_result(cmd: list[str], env: dict) -> dict:
+    """Runs ``cmd`` with ``env`` and returns the JSON it printed on its ``RESULT`` line;
+    RuntimeError with the end of its output if it failed or printed none."""
     import json
     import subprocess
-    import sys
-    env = dict(os.environ, OMP_NUM_THREADS="1")
-    p = subprocess.run([sys.executable, os.path.abspath(script)] + arguments, capture_output=True,
-                       text=True, env=env)
+    p = subprocess.run(cmd, capture_output=True, text=True, env=env)
     line = next((l for l in p.stdout.splitlines() if l.startswith("RESULT ")), None)
     if p.returncode != 0 or line is None:
-        raise RuntimeError(f"tsubu run failed (exit {p.returncode}):\n{p.stdout[-2000:]}{p.stderr[-3000:]}")
+        raise RuntimeError(f"{' '.join(cmd)} failed (exit {p.returncode}):\n{p.stdout[-2000:]}{p.stderr[-3000:]}")
     return json.loads(line[len("RESULT "):])

@@ -59,7 +59,7 @@ import time
 HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, HERE)
 
-from bench_common import cpu_seconds, machine, parse_size, system_busy_s  # noqa: E402
+from bench_common import cpu_seconds, machine, parse_size, run_result, system_busy_s  # noqa: E402
 
 
 def tiles_for(n: int) -> int:
@@ -94,10 +94,10 @@ def worker(args) -> None:
     spent = {"exch": 0.0, "exch_n": 0, "redist": 0.0}
     exchange, redistribute = d._exchange, d.redistribute
 
-    def timed_exchange(vmax2):
+    def timed_exchange(*speeds):
         t0 = time.perf_counter()
         try:
-            return exchange(vmax2)
+            return exchange(*speeds)
         finally:
             spent["exch"] += time.perf_counter() - t0
             spent["exch_n"] += 1
@@ -177,11 +177,7 @@ def one_run(args, scene: str, ranks: int, out: str) -> dict:
     cmd = [mpiexec_path(), "-n", str(ranks), sys.executable, os.path.abspath(__file__), "--worker",
            "--scene", scene, "--n", str(args.n), "--tiles", str(args.tiles), "--steps", str(args.steps),
            "--warmup", str(args.warmup), "--out", out]
-    p = subprocess.run(cmd, capture_output=True, text=True, env=env)
-    line = next((l for l in p.stdout.splitlines() if l.startswith("RESULT ")), None)
-    if p.returncode != 0 or line is None:
-        raise RuntimeError(f"{' '.join(cmd)} failed (exit {p.returncode}):\n{p.stdout[-2000:]}{p.stderr[-3000:]}")
-    return json.loads(line[len("RESULT "):])
+    return run_result(cmd, env)
 
 
 def same_bits(a: str, b: str) -> bool:

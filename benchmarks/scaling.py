@@ -64,7 +64,7 @@ import sys
 import tempfile
 import time
 
-from bench_common import cpu_seconds, machine, parse_size, system_busy_s
+from bench_common import cpu_seconds, machine, parse_size, run_result, system_busy_s
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 LAMMPS_DIR = os.path.join(HERE, "lammps")
@@ -110,11 +110,7 @@ def run_tsubu(args, scene: str, threads: int) -> dict:
     cmd = [sys.executable, os.path.abspath(__file__), "--child", scene, str(threads),
            "--tiles", str(args.tiles), "--bed-steps", str(args.bed_steps), "--drop-n", str(args.drop_n),
            "--drop-steps", str(args.drop_steps), "--warmup", str(args.warmup)]
-    p = subprocess.run(cmd, capture_output=True, text=True, env=env)
-    line = next((l for l in p.stdout.splitlines() if l.startswith("RESULT ")), None)
-    if p.returncode != 0 or line is None:
-        raise RuntimeError(f"tsubu run failed (exit {p.returncode}):\n{p.stdout[-2000:]}{p.stderr[-3000:]}")
-    return json.loads(line[len("RESULT "):])
+    return run_result(cmd, env)
 
 
 # ---------------------------------------------------------------- LAMMPS side

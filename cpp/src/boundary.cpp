@@ -116,15 +116,21 @@ void Simulation::remove_outgoing() {
   contacts_.size(lists_.near_partner.size(), lists_.wall_index.size());
 }
 
-void Simulation::fix_spheres(std::size_t count, const Id* ids, const double* velocities,
-                             const double* angular_velocities) {
-  if (running()) throw std::logic_error("tsubu: Simulation::fix_spheres during a run");
+void Simulation::require_held(const char* what, std::size_t count, const Id* ids) const {
+  if (running()) throw std::logic_error(std::string("tsubu: Simulation::") + what + " during a run");
   std::vector<char> seen(particles_.id_bound(), 0);
   for (std::size_t k = 0; k < count; ++k) {
-    require(particles_.has(ids[k]), [&] { return "fix_spheres: no sphere " + std::to_string(ids[k]); });
+    require(particles_.has(ids[k]), [&] { return std::string(what) + ": no sphere " + std::to_string(ids[k]); });
     require(!seen[static_cast<std::size_t>(ids[k])],
-            [&] { return "fix_spheres: sphere " + std::to_string(ids[k]) + " listed twice"; });
+            [&] { return std::string(what) + ": sphere " + std::to_string(ids[k]) + " listed twice"; });
     seen[static_cast<std::size_t>(ids[k])] = 1;
+  }
+}
+
+void Simulation::fix_spheres(std::size_t count, const Id* ids, const double* velocities,
+                             const double* angular_velocities) {
+  require_held("fix_spheres", count, ids);
+  for (std::size_t k = 0; k < count; ++k) {
     require(finite3(velocities + 3 * k) && finite3(angular_velocities + 3 * k), [&] {
       return "fix_spheres: the motion of sphere " + std::to_string(ids[k]) + " is not finite";
     });

@@ -66,14 +66,7 @@ void Simulation::insert_spheres(std::size_t n, const Id* ids, const double* posi
 }
 
 void Simulation::drop_spheres(std::size_t count, const Id* ids, bool carry) {
-  if (running()) throw std::logic_error("tsubu: Simulation::drop_spheres during a run");
-  std::vector<char> gone(particles_.id_bound(), 0);
-  for (std::size_t k = 0; k < count; ++k) {
-    require(particles_.has(ids[k]), [&] { return "drop_spheres: no sphere " + std::to_string(ids[k]); });
-    require(!gone[static_cast<std::size_t>(ids[k])],
-            [&] { return "drop_spheres: sphere " + std::to_string(ids[k]) + " listed twice"; });
-    gone[static_cast<std::size_t>(ids[k])] = 1;
-  }
+  require_held("drop_spheres", count, ids);
   if (count == 0) return;
   remove_now(count, ids, nullptr, false, carry);
 }

@@ -150,14 +150,7 @@ Id Simulation::add_spheres(std::size_t n, const double* positions, const double*
 void Simulation::reserve(std::size_t count) { particles_.reserve(count); }
 
 void Simulation::remove_spheres(std::size_t count, const Id* ids) {
-  if (running()) throw std::logic_error("tsubu: Simulation::remove_spheres during a run");
-  std::vector<char> gone(particles_.id_bound(), 0);
-  for (std::size_t k = 0; k < count; ++k) {
-    require(particles_.has(ids[k]), [&] { return "remove_spheres: no sphere " + std::to_string(ids[k]); });
-    require(!gone[static_cast<std::size_t>(ids[k])],
-            [&] { return "remove_spheres: sphere " + std::to_string(ids[k]) + " listed twice"; });
-    gone[static_cast<std::size_t>(ids[k])] = 1;
-  }
+  require_held("remove_spheres", count, ids);
   if (count == 0) return;
   const std::vector<int> by_hand(count, -1);
   remove_now(count, ids, by_hand.data());

@@ -451,6 +451,8 @@ class Simulation : private detail::RunHooks {
   // remove_spheres without the checks of the ids and of a run, logging the spheres removed by
   // outlet `outlet[k]` (-1: by remove_spheres).
   void remove_now(std::size_t count, const Id* ids, const int* outlet, bool log = true, bool carry = true);
+  // `what`'s check of a list of ids: not during a run, each held, none twice (InvalidArgument).
+  void require_held(const char* what, std::size_t count, const Id* ids) const;
   // A moving wall faster than light (kMaxWallSpeed) where a sphere is: InvalidArgument.
   void check_wall_speeds() const;
 
