@@ -282,3 +282,33 @@ def test_tsubu_run_over_ranks_writes_the_files_of_one_process(tmp_path):
     assert len(outputs[None]) > 10 and outputs[None].keys() == outputs[3].keys()
     differ = [name for name in outputs[None] if outputs[None][name] != outputs[3][name]]
     assert not differ
+
+
+@pytest.mark.slow
+@needs_mpiexec
+def test_tsubu_resume_over_ranks_continues_a_checkpoint_written_over_ranks(tmp_path):
+    # The periodic shear scene with checkpoints every 0.03 s: run on 2 ranks, resume its
+    # numbered checkpoint on 2 ranks; the frames equal those of one uninterrupted process.
+    examples = Path(__file__).parents[1] / "examples" / "scenes"
+    text = (examples / "periodic_shear.toml").read_text()
+    text = text.replace("duration = 0.1 ", "duration = 0.06").replace("[checkpoint]", "[checkpoint]\ninterval = 0.03", 1)
+    assert "duration = 0.06" in text and "interval = 0.03" in text
+    (tmp_path / "scene.toml").write_text(text)
+
+    def tsubu(ranks, *args):
+        cmd = [sys.executable, "-m", "tsubu", *map(str, args), "--no-progress"]
+        if ranks:
+            cmd = [str(MPIEXEC), "-n", str(ranks), *cmd]
+        done = subprocess.run(cmd, capture_output=True, text=True, timeout=600)
+        assert done.returncode == 0, done.stdout + done.stderr
+
+    tsubu(None, "run", tmp_path / "scene.toml", "--output", tmp_path / "one")
+    tsubu(2, "run", tmp_path / "scene.toml", "--output", tmp_path / "two")
+    numbered = sorted((tmp_path / "two").glob("checkpoint.step*.tsubu"))[-1]
+    assert numbered.name != "checkpoint.step000000000000.tsubu"
+    tsubu(2, "resume", numbered, "--output", tmp_path / "resumed")
+    frames = sorted(p.name for p in (tmp_path / "resumed").glob("*.npz"))
+    assert len(frames) >= 3
+    for name in frames:
+        assert (tmp_path / "resumed" / name).read_bytes() == (tmp_path / "one" / name).read_bytes(), name
+        assert (tmp_path / "two" / name).read_bytes() == (tmp_path / "one" / name).read_bytes(), name

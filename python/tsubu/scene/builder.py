@@ -447,7 +447,6 @@ class Scene:
         from .. import parallel
         kwargs = dict(kwargs)
         kwargs.pop("progress", None)  # (no bar: the ranks would each draw one)
-        kwargs.pop("checkpoint", None)  # (the final one is _save's)
         part = parallel.decompose(self.simulation)
         part.run(time=remaining, **kwargs)
         whole = part.gather()
