@@ -156,28 +156,25 @@ class Decomposed:
     def _balanced_cuts(self, x, ids, everywhere=False):
         """Cuts that give each box about as many spheres: along each axis, at the quantiles of
         the centres (all spheres, each counted once: by its owner, or by every rank when each
-        holds the whole scene)."""
-        MPI = _mpi()
+        holds the whole scene; gathered to every rank along the axes that are cut)."""
         cuts = []
         for d in range(3):
             n = self.shape[d]
-            if everywhere:
-                allx = np.sort(x[:, d])
-            else:
-                own = np.isin(ids, self._owned, assume_unique=True)
-                allx = np.sort(np.concatenate(self.comm.allgather(x[own, d])))
             inner = []
-            if len(allx):
-                for k in range(1, n):
-                    q = allx[min(len(allx) - 1, (k * len(allx)) // n)]
-                    inner.append(float(q))
-            else:
-                inner = [0.0] * (n - 1)
+            if n > 1:
+                if everywhere:
+                    allx = np.sort(x[:, d])
+                else:
+                    own = np.isin(ids, self._owned, assume_unique=True)
+                    allx = np.sort(np.concatenate(self.comm.allgather(x[own, d])))
+                if len(allx):
+                    inner = [float(allx[min(len(allx) - 1, (k * len(allx)) // n)]) for k in range(1, n)]
+                else:
+                    inner = [float(self._lower[d]) if d in self._periodic else 0.0] * (n - 1)
             if d in self._periodic:  # (its boxes end at the faces: their images are the far side's)
                 cuts.append(np.array([self._lower[d]] + inner + [self._upper[d]]))
             else:
                 cuts.append(np.array([-np.inf] + inner + [np.inf]))
-        del MPI
         return cuts
 
     def _box_of(self, rank):
