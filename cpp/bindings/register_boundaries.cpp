@@ -142,22 +142,13 @@ void register_boundaries(py::class_<Sim>& cls) {
       .def_property_readonly("_has_exchange", &Sim::has_exchange)
       .def("_raw_state",
            [](const Sim& s, const Ids& ids) {
-             // x, v, w as stored (a periodic box's spheres unwrapped until the next rebuild)
-             // and the image counters with them, for the listed ids (all held).
+             // x, v, w as stored (a periodic box's spheres unwrapped until the next rebuild),
+             // image counters and slides, of the listed ids (all held).
              const std::size_t n = count_of(ids);
-             Array out({static_cast<py::ssize_t>(n), py::ssize_t(9)});
-             if (s.pack_state(n, ids.data(), out.mutable_data()) != n)
-               throw tsubu::InvalidArgument("_raw_state: an id is not held");
+             Array out({static_cast<py::ssize_t>(n), py::ssize_t(9)}), slid(static_cast<py::ssize_t>(n));
              py::array_t<std::int64_t> images({static_cast<py::ssize_t>(n), py::ssize_t(3)});
-             const tsubu::ParticleStore& ps = s.particles().arrays();
-             for (std::size_t k = 0; k < n; ++k)
-               for (int c = 0; c < 3; ++c)
-                 images.mutable_data()[3 * k + c] =
-                     ps.imaged ? ps.image[3 * static_cast<std::size_t>(s.particles().index(ids.data()[k])) + c] : 0;
-             Array slid(static_cast<py::ssize_t>(n));
-             for (std::size_t k = 0; k < n; ++k)
-               slid.mutable_data()[k] =
-                   ps.imaged ? ps.slid[static_cast<std::size_t>(s.particles().index(ids.data()[k]))] : 0.0;
+             if (s.pack_state(n, ids.data(), out.mutable_data(), images.mutable_data(), slid.mutable_data()) != n)
+               throw tsubu::InvalidArgument("_raw_state: an id is not held");
              return py::make_tuple(out, images, slid);
            },
            "ids"_a)

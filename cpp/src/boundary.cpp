@@ -88,10 +88,7 @@ void Simulation::remove_now(std::size_t count, const Id* ids, const int* outlet,
   }
   domain_.clear_ghosts();  // (the rows go with the removal; a rebuild makes them again)
   particles_.remove(ids, count);
-  const long rebuilds = lists_.rebuilds, refreshes = lists_.refreshes;
-  lists_ = NeighborList();  // nothing to carry over from lists of the old indices
-  lists_.rebuilds = rebuilds;
-  lists_.refreshes = refreshes;
+  reset_lists();
   run_.last_move = 0;
   if (carry) set_contact_state(pairs, walls);
 }
@@ -114,6 +111,13 @@ void Simulation::remove_outgoing() {
   if (out.empty()) return;
   remove_now(out.size(), out.data(), by.data());  // (rebuilds the lists, with their terms)
   contacts_.size(lists_.near_partner.size(), lists_.wall_index.size());
+}
+
+void Simulation::reset_lists() {
+  const long rebuilds = lists_.rebuilds, refreshes = lists_.refreshes;
+  lists_ = NeighborList();  // nothing to carry over from lists of the old indices
+  lists_.rebuilds = rebuilds;
+  lists_.refreshes = refreshes;
 }
 
 void Simulation::require_held(const char* what, std::size_t count, const Id* ids) const {

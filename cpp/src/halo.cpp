@@ -56,10 +56,7 @@ void Simulation::insert_spheres(std::size_t n, const Id* ids, const double* posi
     for (std::size_t k = 0; k < n; ++k) ps.slid[first + k] = slid[k];
   if (ran_ && check)  // (new spheres: the next run checks their overlaps, as add_spheres's)
     for (std::size_t k = 0; k < n; ++k) mark_unchecked(particles_.index(ids[k]), true);
-  const long rebuilds = lists_.rebuilds, refreshes = lists_.refreshes;
-  lists_ = NeighborList();
-  lists_.rebuilds = rebuilds;
-  lists_.refreshes = refreshes;
+  reset_lists();
   energy_ref_valid_ = false;
   run_.last_move = 0;
   if (carry) set_contact_state(pairs, walls);
@@ -71,18 +68,22 @@ void Simulation::drop_spheres(std::size_t count, const Id* ids, bool carry) {
   remove_now(count, ids, nullptr, false, carry);
 }
 
-std::size_t Simulation::pack_state(std::size_t n, const Id* ids, double* out) const {
+std::size_t Simulation::pack_state(std::size_t n, const Id* ids, double* out, std::int64_t* images,
+                                   double* slid) const {
   const ParticleStore& ps = particles_.arrays();
   std::size_t m = 0;
   for (std::size_t k = 0; k < n; ++k) {
     if (!particles_.has(ids[k])) continue;
     const std::size_t i = static_cast<std::size_t>(particles_.index(ids[k]));
-    double* o = out + 9 * m++;
+    double* o = out + 9 * m;
     for (int c = 0; c < 3; ++c) {
       o[c] = ps.x[3 * i + c];
       o[3 + c] = ps.v[3 * i + c];
       o[6 + c] = ps.w[3 * i + c];
+      if (images) images[3 * m + c] = ps.imaged ? ps.image[3 * i + c] : 0;
     }
+    if (slid) slid[m] = ps.imaged ? ps.slid[i] : 0.0;
+    ++m;
   }
   return m;
 }

@@ -476,17 +476,8 @@ class Decomposed:
         got = {k: np.concatenate([m[k] for m in comm.alltoall(outgoing)]) for k in outgoing[0]}
         pairs, walls = core.contact_state(False), core.contact_state(True)
         k = len(got["ids"])
-        if k:
-            core._insert_spheres(got["ids"], got["x"].reshape(-1, 3), got["radius"], got["material"],
-                                 got["v"].reshape(-1, 3), got["w"].reshape(-1, 3), np.zeros(k), carry=False,
-                                 images=np.zeros((k, 3), np.int64), slid=np.zeros(k), check=_check)
-            fixed_ids, fv, fw = self._fixed
-            back = np.isin(fixed_ids, got["ids"])
-            if back.any():
-                core.fix_spheres(fixed_ids[back], fv[back], fw[back])
-        # One process's next run rebuilds its lists, wrapping the spheres into a periodic box:
-        # every rank does it now.
-        core.set_contact_state(pairs, walls, wrap=True)
+        got.update(dissipated=np.zeros(k), images=np.zeros((k, 3), np.int64), slid=np.zeros(k))
+        self._reshape([], got, pairs, walls, fresh=True, check=_check)
         # The new spheres join the lists as the spheres held where they were sent (the lists of
         # the others stay those of the last redistribution), then the cuts move with the load.
         gx = got["x"].reshape(-1, 3)
@@ -530,28 +521,8 @@ class Decomposed:
             inserter._inserted_mass += float(np.sum(inserter.material.density * 4.0 / 3.0 * np.pi * rp * rp * rp))
         inserter._carry(radii, placed, due)
 
-    def _reshape(self, leaving, arriving, pairs, walls) -> None:
-        """Drops the spheres ``leaving`` (ids), inserts ``arriving`` (a dict of arrays, or
-        None), and sets the contacts ``pairs`` and ``walls`` (contact_state dicts): one rebuild
-        of the lists. In a periodic box that rebuild wraps nothing and the lists keep their
-        displacement bounds, so that the next rebuild, which wraps, falls where one process's
-        does."""
-        core = self._core
-        bounds = core._moved_bounds
-        core._drop_spheres(np.asarray(leaving, dtype=np.int64), carry=False)
-        if arriving is not None and len(arriving["ids"]):
-            core._insert_spheres(arriving["ids"], arriving["x"].reshape(-1, 3), arriving["radius"],
-                                 arriving["material"].astype(np.int32), arriving["v"].reshape(-1, 3),
-                                 arriving["w"].reshape(-1, 3), arriving["dissipated"], carry=False,
-                                 images=arriving["images"].reshape(-1, 3) if self._periodic else None,
-                                 slid=arriving["slid"] if self._periodic else None)
-            fixed_ids, fv, fw = self._fixed
-            back = np.isin(fixed_ids, arriving["ids"])
-            if back.any():
-                core.fix_spheres(fixed_ids[back], fv[back], fw[back])
-        core.set_contact_state(pairs, walls, wrap=not self._periodic)
-        if self._periodic:
-            core._moved_bounds = bounds
+    def _reshape(self, leaving, arriving, pairs, walls, fresh=False, check=False) -> None:
+        _reshape(self._core, self._fixed, bool(self._periodic), leaving, arriving, pairs, walls, fresh, check)
 
     def redistribute(self, balance: bool = False) -> None:
         """Move spheres to the rank whose box now holds them, refill every halo and carry the
@@ -657,8 +628,6 @@ class Decomposed:
         """The whole scene as one :class:`tsubu.Simulation` on rank ``root`` (None on the
         others): every sphere with its state, every contact, as one process would hold them
         after the same steps (a collective call). Save it, take its energy, write output."""
-        from .simulation import Simulation
-
         core, comm = self._core, self.comm
         ids = core.get_ids()
         own = np.isin(ids, self._owned, assume_unique=True)
@@ -677,10 +646,8 @@ class Decomposed:
         got = {k: np.concatenate([p[k] for p in parts]) for k in _SPHERE_KEYS if k in parts[0]}
         order = np.argsort(got["ids"], kind="stable")
         got = {k: a[order] for k, a in got.items()}
-        gatherer = Decomposed.__new__(Decomposed)  # (its _reshape, on the whole)
-        gatherer._core, gatherer._fixed, gatherer._periodic = wc, self._fixed, self._periodic
-        gatherer._reshape(wc.get_ids(), got, _merge([p["pairs"] for p in parts], walls=False),
-                          _merge([p["walls"] for p in parts], walls=True))
+        _reshape(wc, self._fixed, bool(self._periodic), wc.get_ids(), got,
+                 _merge([p["pairs"] for p in parts], walls=False), _merge([p["walls"] for p in parts], walls=True))
         wc._set_removed(*(log[k] for k in ("id", "outlet", "step", "time", "position", "velocity")))
         return whole
 
@@ -702,6 +669,31 @@ class _InsertEvents:
         pass
 
 
+def _reshape(core, fixed, periodic, leaving, arriving, pairs, walls, fresh=False, check=False) -> None:
+    """Drops the spheres ``leaving`` (ids), inserts ``arriving`` (a dict of arrays, or None; the
+    fixed ones among them, by ``fixed``'s table, fixed again; ``check``: checked for overlaps at
+    the next run), and sets the contacts ``pairs`` and ``walls`` (contact_state dicts): one
+    rebuild of the lists. In a periodic box that rebuild wraps nothing and the lists keep their
+    displacement bounds, so that the next rebuild, which wraps, falls where one process's does;
+    unless ``fresh``: spheres were added, and one process's next run rebuilds and wraps them all,
+    as this rebuild then does."""
+    bounds = core._moved_bounds
+    core._drop_spheres(np.asarray(leaving, dtype=np.int64), carry=False)
+    if arriving is not None and len(arriving["ids"]):
+        core._insert_spheres(arriving["ids"], arriving["x"].reshape(-1, 3), arriving["radius"],
+                             arriving["material"].astype(np.int32), arriving["v"].reshape(-1, 3),
+                             arriving["w"].reshape(-1, 3), arriving["dissipated"], carry=False,
+                             images=arriving["images"].reshape(-1, 3) if periodic else None,
+                             slid=arriving["slid"] if periodic else None, check=check)
+        fixed_ids, fv, fw = fixed
+        back = np.isin(fixed_ids, arriving["ids"])
+        if back.any():
+            core.fix_spheres(fixed_ids[back], fv[back], fw[back])
+    core.set_contact_state(pairs, walls, wrap=fresh or not periodic)
+    if periodic and not fresh:
+        core._moved_bounds = bounds
+
+
 _SPHERE_KEYS = ("ids", "x", "v", "w", "radius", "material", "dissipated", "images", "slid")
 
 
@@ -718,24 +710,22 @@ def launched_ranks() -> int:
     """How many ranks ``mpiexec`` started this process among (MPICH's and Intel MPI's
     ``PMI_SIZE``, Open MPI's ``OMPI_COMM_WORLD_SIZE``), read from the environment without
     starting MPI; 1 when it was not started by mpiexec."""
-    import os
-
-    for name in ("OMPI_COMM_WORLD_SIZE", "PMI_SIZE", "PMIX_SIZE"):
-        value = os.environ.get(name)
-        if value and value.isdigit():
-            return int(value)
-    return 1
+    return _launched(("OMPI_COMM_WORLD_SIZE", "PMI_SIZE", "PMIX_SIZE"), 1)
 
 
 def launched_rank() -> int:
     """This process's rank among those ``mpiexec`` started (0 when it was not)."""
+    return _launched(("OMPI_COMM_WORLD_RANK", "PMI_RANK", "PMIX_RANK"), 0)
+
+
+def _launched(names, default: int) -> int:
     import os
 
-    for name in ("OMPI_COMM_WORLD_RANK", "PMI_RANK", "PMIX_RANK"):
+    for name in names:
         value = os.environ.get(name)
         if value and value.isdigit():
             return int(value)
-    return 0
+    return default
 
 
 def _rows(state: dict, mask) -> dict:

@@ -20,7 +20,7 @@ struct FixedSpheres {
   std::vector<Id> ids;        // by increasing id
   std::vector<double> v, w;   // the prescribed velocity and angular velocity, 3 per id
   std::vector<double> x0;     // scratch: the positions before the particle pass
-  std::vector<double> pass_v2;  // |v|^2 as the particle pass left each, before after() (3 each)
+  std::vector<double> pass_v2;  // |v|^2 as the particle pass left each, before after() (one each)
 
   bool empty() const { return ids.empty(); }
   // Whether some fixed sphere moves or spins (then it works on the scene like a moving wall).

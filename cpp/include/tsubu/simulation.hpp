@@ -77,7 +77,8 @@ class Simulation : private detail::RunHooks {
                       const double* dissipated, bool carry = true, const std::int64_t* images = nullptr,
                       const double* slid = nullptr, bool check = false);
   void drop_spheres(std::size_t count, const Id* ids, bool carry = true);
-  std::size_t pack_state(std::size_t n, const Id* ids, double* out) const;
+  std::size_t pack_state(std::size_t n, const Id* ids, double* out, std::int64_t* images = nullptr,
+                         double* slid = nullptr) const;  // (images: 3 a sphere, slid: 1, if given)
   double unpack_state(std::size_t n, const Id* ids, const double* in);
   using Exchange = std::function<std::array<double, 3>(double vmax2, double rel2)>;
   void set_exchange(Exchange exchange) { exchange_ = std::move(exchange); }
@@ -86,7 +87,6 @@ class Simulation : private detail::RunHooks {
   std::array<double, 3> own_speeds() const;
   std::array<double, 2> moved_bounds() const { return {lists_.moved, lists_.moved_near}; }
   void set_moved_bounds(double moved, double moved_near) { lists_.moved = moved, lists_.moved_near = moved_near; }
-  const Particles& particles() const { return particles_; }
   Id add_sphere(const Vec3& position, double radius, int material,
                 const Vec3& velocity = Vec3::Zero(), const Vec3& angular_velocity = Vec3::Zero());
   int add_plane(const Vec3& point, const Vec3& normal, int material,
@@ -186,8 +186,7 @@ class Simulation : private detail::RunHooks {
   const std::vector<Outlet>& outlets() const { return outlets_; }
   // Every sphere removed so far, by an outlet or by remove_spheres.
   const RemovalLog& removed() const { return removed_; }
-  // Replaces the log (a decomposed scene gathered into one: the log of every rank's own).
-  void set_removed(RemovalLog log) { removed_ = std::move(log); }
+  void set_removed(RemovalLog log) { removed_ = std::move(log); }  // (a decomposed scene gathered)
 
   // ---- time stepping -----------------------------------------------------------------------
   // The stability bound of symplectic Euler, (2.31) with spring and dashpot taken together:
@@ -453,6 +452,7 @@ class Simulation : private detail::RunHooks {
   void remove_now(std::size_t count, const Id* ids, const int* outlet, bool log = true, bool carry = true);
   // `what`'s check of a list of ids: not during a run, each held, none twice (InvalidArgument).
   void require_held(const char* what, std::size_t count, const Id* ids) const;
+  void reset_lists();  // empty lists (the spheres' indices changed), their counters kept
   // A moving wall faster than light (kMaxWallSpeed) where a sphere is: InvalidArgument.
   void check_wall_speeds() const;
 
