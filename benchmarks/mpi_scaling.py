@@ -50,6 +50,7 @@ import argparse
 import json
 import math
 import os
+import shutil
 import statistics
 import subprocess
 import sys
@@ -67,11 +68,40 @@ def tiles_for(n: int) -> int:
     return max(1, int(round(math.sqrt(n / 10000.0))))
 
 
-def build(scene: str, n: int, tiles: int):
+def tiles_for_cores(cores: int) -> tuple:
+    """Weak scaling: the bed tiled a x b times, a b = cores (10,000 spheres a core), as square as
+    the count allows (2: 2 x 1, 8: 4 x 2, 16: 4 x 4)."""
+    b = max(d for d in range(1, int(math.isqrt(cores)) + 1) if cores % d == 0)
+    return (cores // b, b)
+
+
+def parse_tiles(s: str) -> tuple:
+    """'4' -> (4, 4); '4,2' -> (4, 2)."""
+    parts = [int(v) for v in str(s).split(",")]
+    return (parts[0], parts[0]) if len(parts) == 1 else (parts[0], parts[1])
+
+
+def parse_config(s: str) -> tuple:
+    """A --ranks entry: 'R' (one thread a rank) or 'RxT' (T threads a rank) -> (R, T)."""
+    try:
+        r, _, t = s.lower().partition("x")
+        r, t = int(r), int(t or 1)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"--ranks entries are R or RxT (e.g. 4 or 4x2), got {s!r}")
+    if r < 1 or t < 1:
+        raise argparse.ArgumentTypeError(f"--ranks entries need R, T >= 1, got {s!r}")
+    return (r, t)
+
+
+def label(cfg: tuple) -> str:
+    return f"{cfg[0]}x{cfg[1]}" if cfg[1] > 1 else str(cfg[0])
+
+
+def build(scene: str, n: int, tiles: tuple, threads: int = 1):
     import reference_scene as rs
     if scene == "bed":
-        return rs.build_tiled_bed(tiles, threads=1)
-    return rs.build(n, threads=1)
+        return rs.build_tiled_bed(tiles if tiles[0] != tiles[1] else tiles[0], threads=threads)
+    return rs.build(n, threads=threads)
 
 
 # ---------------------------------------------------------------- one run (every rank)
@@ -82,11 +112,11 @@ def worker(args) -> None:
 
     comm = MPI.COMM_WORLD
     rank = comm.Get_rank()
-    sim = build(args.scene, args.n, args.tiles)
+    sim = build(args.scene, args.n, parse_tiles(args.tiles), args.threads)
     n = sim.size
     comm.Barrier()
     t = time.perf_counter()
-    d = tsubu.parallel.decompose(sim)
+    d = tsubu.parallel.decompose(sim, margin=args.margin)
     decomp_s = time.perf_counter() - t
 
     # Time the per-step exchange and the redistributions run() makes (instance attributes: run()
@@ -158,7 +188,8 @@ def worker(args) -> None:
 
     if rank == 0:
         cpu_ranks = sum(p["cpu_s"] for p in per_rank)
-        out = {"scene": args.scene, "n": n, "ranks": comm.Get_size(), "shape": list(d.shape),
+        out = {"scene": args.scene, "n": n, "ranks": comm.Get_size(), "threads": args.threads,
+               "tiles": list(parse_tiles(args.tiles)), "shape": list(d.shape),
                "steps": args.steps, "warmup": args.warmup, "wall_s": wall, "rate": n * args.steps / wall,
                "redistributions": d.redistributions - 1, "redistributions_warmup": redist_warmup,
                "redistribute_explicit_s": explicit_s, "reach": d.reach, "margin": d.margin,
@@ -172,12 +203,33 @@ def mpiexec_path() -> str:
     return os.path.join(os.path.dirname(sys.executable), "mpiexec")
 
 
-def one_run(args, scene: str, ranks: int, out: str) -> dict:
-    env = dict(os.environ, OMP_NUM_THREADS="1")
-    cmd = [mpiexec_path(), "-n", str(ranks), sys.executable, os.path.abspath(__file__), "--worker",
-           "--scene", scene, "--n", str(args.n), "--tiles", str(args.tiles), "--steps", str(args.steps),
-           "--warmup", str(args.warmup), "--out", out]
+def one_run(args, scene: str, cfg: tuple, tiles: tuple, out: str) -> dict:
+    ranks, threads = cfg
+    env = dict(os.environ, OMP_NUM_THREADS=str(threads))
+    cmd = ([mpiexec_path(), "-n", str(ranks)] + args.mpiexec_args.split()
+           + [sys.executable, os.path.abspath(__file__), "--worker", "--threads", str(threads),
+              "--scene", scene, "--n", str(args.n), "--tiles", f"{tiles[0]},{tiles[1]}",
+              "--steps", str(args.steps), "--warmup", str(args.warmup), "--out", out]
+           + ([] if args.margin is None else ["--margin", repr(args.margin)]))
     return run_result(cmd, env)
+
+
+def one_lammps(args, tiles: tuple, cores: int, work: str) -> dict:
+    """The same bed in LAMMPS on ``cores`` MPI ranks (scaling.py's deck and log parsing)."""
+    import scaling
+    data = os.path.join(work, f"bed_{tiles[0]}x{tiles[1]}.lmp")
+    if not os.path.exists(data):
+        n = scaling.write_bed_data(tiles, data)
+        with open(data + ".n", "w") as f:
+            f.write(str(n))
+    with open(data + ".n") as f:
+        n = int(f.read())
+    walls = scaling.lammps_walls(args.lammps, "auto")
+    largs = argparse.Namespace(lammps=args.lammps, bed_steps=args.warmup + args.steps, mpiexec=mpiexec_path(),
+                               mpiexec_args=args.mpiexec_args, mpiexec_always=True)
+    sub = os.path.join(work, f"lammps_{tiles[0]}x{tiles[1]}_{cores}")
+    os.makedirs(sub, exist_ok=True)
+    return scaling.run_lammps(largs, data, n, cores, walls, sub)
 
 
 def same_bits(a: str, b: str) -> bool:
@@ -186,44 +238,64 @@ def same_bits(a: str, b: str) -> bool:
     return x.shape == y.shape and x.tobytes() == y.tobytes()
 
 
-def report(scene: str, runs: dict, ranks: list, identical: bool, n_runs: int) -> dict:
-    base = ranks[0]
+def report(scene: str, runs: dict, configs: list, identical: bool, n_runs: int, lammps: dict, weak: bool) -> dict:
+    base = configs[0]
+    c0 = base[0] * base[1]
     first = runs[base][0]
-    print(f"\n== {scene}: N = {first['n']:,}, {first['steps']} timed steps after {first['warmup']} warm-up, "
-          f"one thread per rank, reach {first['reach'] * 1e3:.3g} mm (margin {first['margin'] * 1e3:.3g} mm)")
-    head = (f"{'R':>2} {'grid':>7} {'median Mp-s/s':>13} {'min-max':>13} {'R/R%d each rep' % base:>18} "
-            f"{'median':>6} {'redist':>6} {'redist s':>8} {'1 redist s':>10} {'decomp s':>8} {'other each rep':>14}")
+    kind = "weak scaling, 10,000 spheres a core" if weak else f"N = {first['n']:,}"
+    print(f"\n== {scene}: {kind}, {first['steps']} timed steps after {first['warmup']} warm-up, "
+          f"reach {first['reach'] * 1e3:.3g} mm (margin {first['margin'] * 1e3:.3g} mm)")
+    print("R x T: ranks x threads a rank; speed-up: rate / rate(first), per repetition, median; "
+          "eff.: speed-up x cores(first) / cores" + (" (weak: the rate a core against the first's)" if weak else ""))
+    head = (f"{'RxT':>5} {'N':>8} {'grid':>7} {'median Mp-s/s':>13} {'min-max':>13} {'speed-up':>8} {'eff.':>5} "
+            f"{'redist':>6} {'redist s':>8} {'decomp s':>8} {'exch %':>6} {'other':>12}")
+    if lammps:
+        head += f" | {'LAMMPS M':>8} {'L x':>5} {'L eff.':>6} {'tsubu/L':>7}"
     print(head)
     print("-" * len(head))
     summary = {}
-    for r in ranks:
-        rates = [x["rate"] for x in runs[r]]
-        ratios = [a["rate"] / b["rate"] for a, b in zip(runs[r], runs[base])]
-        red = [x["redistributions"] for x in runs[r]]
-        red_s = [max(p["redist_s_in_run"] for p in x["per_rank"]) for x in runs[r]]
-        expl = [x["redistribute_explicit_s"] for x in runs[r]]
-        dec = [max(p["decompose_s"] for p in x["per_rank"]) for x in runs[r]]
-        other = [x["other"] for x in runs[r] if x["other"] is not None]
-        each = " ".join(f"{q:.3f}" for q in ratios)
-        print(f"{r:>2} {'x'.join(map(str, runs[r][0]['shape'])):>7} {statistics.median(rates) / 1e6:>13.2f} "
-              f"{min(rates) / 1e6:>6.2f}-{max(rates) / 1e6:<6.2f} {each:>18} {statistics.median(ratios):>6.3f} "
-              f"{'/'.join(map(str, sorted(set(red)))):>6} {statistics.median(red_s):>8.3f} "
-              f"{statistics.median(expl):>10.3f} {statistics.median(dec):>8.3f} "
-              f"{' '.join(f'{o:.2f}' for o in other):>14}")
-        summary[r] = {"median_rate": statistics.median(rates), "rates": rates, "ratios": ratios,
-                      "median_ratio": statistics.median(ratios)}
-    print("per rank (last repetition): held = own + halo copies, owned; exchange callback seconds "
-          "(timed run) / share of the timed wall time")
-    for r in ranks:
-        x = runs[r][-1]
+    lbase = lammps.get(c0) if lammps else None
+    for cfg in configs:
+        rr = runs[cfg]
+        cores = cfg[0] * cfg[1]
+        rates = [x["rate"] for x in rr]
+        ratios = [a["rate"] / b["rate"] for a, b in zip(rr, runs[base])]
+        sp = statistics.median(ratios)
+        red = [x["redistributions"] for x in rr]
+        red_s = [max(p["redist_s_in_run"] for p in x["per_rank"]) for x in rr]
+        dec = [max(p["decompose_s"] for p in x["per_rank"]) for x in rr]
+        exch = [max(p["exch_s"] for p in x["per_rank"]) / x["wall_s"] for x in rr]
+        other = [x["other"] for x in rr if x["other"] is not None]
+        line = (f"{label(cfg):>5} {rr[0]['n']:>8} {'x'.join(map(str, rr[0]['shape'])):>7} "
+                f"{statistics.median(rates) / 1e6:>13.2f} {min(rates) / 1e6:>6.2f}-{max(rates) / 1e6:<6.2f} "
+                f"{sp:>7.2f}x {sp * c0 / cores:>5.2f} {'/'.join(map(str, sorted(set(red)))):>6} "
+                f"{statistics.median(red_s):>8.3f} {statistics.median(dec):>8.3f} "
+                f"{100 * statistics.median(exch):>5.1f}% {' '.join(f'{o:.2f}' for o in other):>12}")
+        row = {"ranks": cfg[0], "threads": cfg[1], "n": rr[0]["n"], "median_rate": statistics.median(rates),
+               "rates": rates, "ratios": ratios, "median_ratio": sp, "efficiency": sp * c0 / cores,
+               "exchange_share": statistics.median(exch)}
+        if lammps and cores in lammps:
+            lr = lammps[cores]
+            lrate = statistics.median([x["rate"] for x in lr])
+            lx = statistics.median([a["rate"] / b["rate"] for a, b in zip(lr, lbase)]) if lbase else float("nan")
+            vs = statistics.median([a["rate"] / b["rate"] for a, b in zip(rr, lr)])
+            line += f" | {lrate / 1e6:>8.2f} {lx:>4.2f}x {lx * c0 / cores:>6.2f} {vs:>6.2f}x"
+            row.update(lammps_rate=lrate, lammps_speedup=lx, lammps_rates=[x["rate"] for x in lr], ratio_vs_lammps=vs)
+        print(line)
+        summary[label(cfg)] = row
+    print("per rank (last repetition): held = own + halo copies; owned; exchange callback seconds")
+    for cfg in configs:
+        x = runs[cfg][-1]
         held = [p["held"] for p in x["per_rank"]]
         owned = [p["owned"] for p in x["per_rank"]]
         exch = [p["exch_s"] for p in x["per_rank"]]
-        print(f"  R={r}: held {held}  owned {owned}  halo overhead {sum(held) / x['n'] - 1:+.1%}  "
-              f"exch s {[round(e, 4) for e in exch]} in {x['per_rank'][0]['exch_calls']} calls ({max(exch) / x['wall_s']:.1%} of {x['wall_s']:.2f} s)")
-    print(f"positions after the timed run bit-identical over all {n_runs} runs (every R, every repetition): "
-          f"{'yes' if identical else 'NO'}")
-    every = [x for r in ranks for x in runs[r]]
+        show = (lambda v: v if len(v) <= 4 else f"{min(v)}..{max(v)}")
+        print(f"  {label(cfg)}: held {show(held)}  owned {show(owned)}  halo overhead {sum(held) / x['n'] - 1:+.1%}  "
+              f"exch s {show([round(e, 4) for e in exch])} in {x['per_rank'][0]['exch_calls']} calls "
+              f"({max(exch) / x['wall_s']:.1%} of {x['wall_s']:.2f} s)")
+    print(f"positions after the timed run bit-identical over all {n_runs} runs of the same N "
+          f"(every R x T, every repetition): {'yes' if identical else 'NO'}")
+    every = [x for c in configs for x in runs[c]]
     errors = sorted({x["gather_error"] for x in every if x["gather_error"]})
     agree = [x["gather_agrees"] for x in every if x["gather_agrees"] is not None]
     if agree:
@@ -231,8 +303,47 @@ def report(scene: str, runs: dict, ranks: list, identical: bool, n_runs: int) ->
     if errors:
         print(f"d.gather() failed in {len(every) - len(agree)} runs, the owners' positions compared instead: "
               + "; ".join(errors))
-    return {"runs": {str(r): runs[r] for r in ranks}, "summary": {str(r): s for r, s in summary.items()},
-            "identical": identical}
+    return {"weak": weak, "runs": {label(c): runs[c] for c in configs}, "summary": summary,
+            "lammps_runs": {str(k): v for k, v in (lammps or {}).items()}, "identical": identical}
+
+
+def plot(results: dict, path: str) -> None:
+    """Speed-up (strong) or efficiency (weak) against cores, tsubu's ranks and LAMMPS's."""
+    try:
+        import matplotlib
+        matplotlib.use("Agg")
+        import matplotlib.pyplot as plt
+    except ImportError:
+        raise SystemExit('--plot needs matplotlib: pip install "tsubu[bench]"')
+    scenes = results["scenes"]
+    fig, axes = plt.subplots(1, len(scenes), figsize=(5.2 * len(scenes), 4.2), squeeze=False)
+    for ax, (name, sc) in zip(axes[0], scenes.items()):
+        rows = list(sc["summary"].values())
+        weak = sc["weak"]
+        y = "efficiency" if weak else "median_ratio"
+        for t in sorted({r["threads"] for r in rows}):
+            pts = [r for r in rows if r["threads"] == t]
+            c = [r["ranks"] * r["threads"] for r in pts]
+            c0 = rows[0]["ranks"] * rows[0]["threads"]
+            ax.plot(c, [r[y] * (1 if weak else c0) for r in pts], "o-",
+                    label=f"tsubu, {t} thread{'s' if t > 1 else ''} a rank")
+        lam = [r for r in rows if "lammps_rate" in r and r["threads"] == 1]
+        if lam:
+            c = [r["ranks"] for r in lam]
+            c0 = rows[0]["ranks"] * rows[0]["threads"]
+            ax.plot(c, [r["lammps_speedup"] * (c0 / cc if weak else c0) for r, cc in zip(lam, c)], "s--",
+                    label="LAMMPS (MPI ranks)")
+        most = max(r["ranks"] * r["threads"] for r in rows)
+        ax.plot([1, most], [1, 1] if weak else [1, most], ":", color="grey", label="linear")
+        ax.set_xlabel("cores (ranks x threads)")
+        ax.set_ylabel("parallel efficiency" if weak else "speed-up over one core")
+        ax.set_title(f"{name}" + (" (10,000 a core)" if weak else f" (N = {rows[0]['n']:,})"), fontsize=9)
+        ax.legend(fontsize=8)
+        ax.grid(alpha=0.3)
+    fig.suptitle(f"{results['machine']['cpu']}, {results['machine']['usable_cpus']} cores", fontsize=9)
+    fig.tight_layout()
+    fig.savefig(path, dpi=120)
+    print(f"wrote {path}")
 
 
 def main(argv=None) -> int:
@@ -240,56 +351,81 @@ def main(argv=None) -> int:
                                  formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--scenes", nargs="+", default=["drop", "bed"], choices=["drop", "bed"])
     ap.add_argument("--n", type=parse_size, default=100000, help="drop spheres (default 1e5); also picks the bed's tiles")
-    ap.add_argument("--tiles", type=int, default=None, help="bed tiles per side (default: N = 10,000 K^2 nearest --n)")
+    ap.add_argument("--tiles", default=None, help="bed tiles per side, or 'a,b' (default: N = 10,000 K^2 nearest --n)")
     ap.add_argument("--steps", type=int, default=2000, help="timed steps (default 2,000)")
     ap.add_argument("--warmup", type=int, default=50, help="untimed steps after decompose (default 50)")
     ap.add_argument("--repeats", type=int, default=3)
-    ap.add_argument("--ranks", nargs="+", type=int, default=[1, 2])
+    ap.add_argument("--ranks", nargs="+", type=parse_config, default=[(1, 1), (2, 1)],
+                    help="rank counts, R or RxT for T threads a rank (default: 1 2)")
+    ap.add_argument("--weak", action="store_true",
+                    help="bed only: 10,000 spheres a core (R x T cores: the bed tiled a x b, a b = R T)")
+    ap.add_argument("--lammps", default=None, help="LAMMPS binary: the bed also in LAMMPS on R x T ranks")
+    ap.add_argument("--margin", type=float, default=None, help="decompose's margin, m (default: its own)")
+    ap.add_argument("--mpiexec-args", default="", help="extra mpiexec arguments, both codes (e.g. '-bind-to core')")
     ap.add_argument("--json", default=None, help="write every run's figures here")
+    ap.add_argument("--plot", default=None, help="draw speed-up / efficiency against cores here (matplotlib)")
     ap.add_argument("--worker", action="store_true", help=argparse.SUPPRESS)
+    ap.add_argument("--threads", type=int, default=1, help=argparse.SUPPRESS)
     ap.add_argument("--scene", default="drop", help=argparse.SUPPRESS)
     ap.add_argument("--out", default=None, help=argparse.SUPPRESS)
     args = ap.parse_args(argv)
     if args.tiles is None:
-        args.tiles = tiles_for(args.n)
+        args.tiles = str(tiles_for(args.n))
     if args.worker:
         worker(args)
         return 0
+    if args.weak and args.scenes != ["bed"]:
+        ap.error("--weak scales the bed only: add --scenes bed")
+    if args.lammps and not shutil.which(args.lammps):
+        ap.error(f"--lammps {args.lammps!r}: no such program")
 
     if not os.path.exists(mpiexec_path()):
         print(f"no mpiexec beside {sys.executable} ({mpiexec_path()})", file=sys.stderr)
         return 2
     m = machine()
+    configs = args.ranks
     print(f"machine: {m['cpu']}, {m['usable_cpus']} usable CPUs, load {m['loadavg']}; python {m['python']}")
-    print(f"mpiexec: {mpiexec_path()}; ranks {args.ranks}, {args.repeats} repetitions (R order alternating)")
+    print(f"mpiexec: {mpiexec_path()} {args.mpiexec_args}; R x T {[label(c) for c in configs]}, "
+          f"{args.repeats} repetitions (order alternating)" + (f"; LAMMPS {args.lammps}" if args.lammps else ""))
     results, ok = {}, True
     t_start = time.perf_counter()
     with tempfile.TemporaryDirectory(prefix="tsubu-mpi-scaling-") as tmp:
         for scene in args.scenes:
-            runs = {r: [] for r in args.ranks}
-            files = []
+            runs = {c: [] for c in configs}
+            lammps = {} if (args.lammps and scene == "bed") else None
+            files = {}
             for rep in range(args.repeats):
-                order = args.ranks if rep % 2 == 0 else list(reversed(args.ranks))
-                for r in order:
-                    out = os.path.join(tmp, f"{scene}_R{r}_{rep}.npy")
-                    x = one_run(args, scene, r, out)
-                    runs[r].append(x)
-                    files.append(out)
+                order = configs if rep % 2 == 0 else list(reversed(configs))
+                for cfg in order:
+                    cores = cfg[0] * cfg[1]
+                    tiles = tiles_for_cores(cores) if args.weak else parse_tiles(args.tiles)
+                    out = os.path.join(tmp, f"{scene}_{label(cfg)}_{rep}.npy")
+                    x = one_run(args, scene, cfg, tiles, out)
+                    runs[cfg].append(x)
+                    files.setdefault(x["n"], []).append(out)
                     held = [p["held"] for p in x["per_rank"]]
-                    print(f"  {scene} rep {rep + 1} R={r}: {x['rate'] / 1e6:.2f} M particle-steps/s "
-                          f"({x['wall_s']:.2f} s), held {held}, redistributions {x['redistributions']}",
+                    print(f"  {scene} rep {rep + 1} {label(cfg)}: N {x['n']}, {x['rate'] / 1e6:.2f} M particle-steps/s "
+                          f"({x['wall_s']:.2f} s), held {min(held)}..{max(held)}, redistributions {x['redistributions']}",
                           flush=True)
-            identical = all(same_bits(files[0], f) for f in files[1:])
+                    if lammps is not None and len(lammps.setdefault(cores, [])) <= rep:
+                        lx = one_lammps(args, tiles, cores, tmp)
+                        lammps[cores].append(lx)
+                        print(f"  {scene} rep {rep + 1} LAMMPS {cores} ranks: {lx['rate'] / 1e6:.2f} M particle-steps/s",
+                              flush=True)
+            identical = all(same_bits(f[0], g) for f in files.values() for g in f[1:])
             ok &= identical
-            results[scene] = (runs, identical, len(files))
+            results[scene] = (runs, identical, sum(len(f) for f in files.values()), lammps)
     print(f"\n(total {time.perf_counter() - t_start:.0f} s)")
-    out = {"machine": m, "args": {k: v for k, v in vars(args).items() if k not in ("worker", "scene", "out")},
+    out = {"machine": m, "args": {k: (v if k != "ranks" else [label(c) for c in v]) for k, v in vars(args).items()
+                                  if k not in ("worker", "scene", "out", "threads")},
            "scenes": {}}
-    for scene, (runs, identical, n_runs) in results.items():
-        out["scenes"][scene] = report(scene, runs, args.ranks, identical, n_runs)
+    for scene, (runs, identical, n_runs, lammps) in results.items():
+        out["scenes"][scene] = report(scene, runs, configs, identical, n_runs, lammps, args.weak)
     if args.json:
         with open(args.json, "w") as f:
             json.dump(out, f, indent=1)
+    if args.plot:
+        plot(out, args.plot)
     return 0 if ok else 1
 
 

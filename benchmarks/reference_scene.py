@@ -217,24 +217,26 @@ def build_dense_bed(threads=None, floor_velocity: float = 0.0, slip_rule: str = 
     return sim
 
 
-def tiled_bed_state(tiles: int, path: str = DENSE_BED) -> dict:
+def tiled_bed_state(tiles, path: str = DENSE_BED) -> dict:
     """The settled bed tiled ``tiles`` x ``tiles`` times in x and y (shared/bench/device/tile.py:
     copy (a, b) shifted by (a Lx, b Ly), copies in the order a, then b), as x, v, w (N, 3) arrays
-    and the box's ``lx``, ``ly``."""
+    and the box's ``lx``, ``ly``. ``tiles`` may also be a pair (tiles along x, tiles along y), for
+    rectangular beds (weak scaling over 2 or 8 ranks)."""
+    tx, ty = (tiles, tiles) if np.ndim(tiles) == 0 else tuple(tiles)
     st = dense_bed_state(path)
     lx, ly = box(len(st["x"]))
-    shift = np.array([[a * lx, b * ly, 0.0] for a in range(tiles) for b in range(tiles)])
+    shift = np.array([[a * lx, b * ly, 0.0] for a in range(tx) for b in range(ty)])
     x = (st["x"][None, :, :] + shift[:, None, :]).reshape(-1, 3)
-    k = tiles * tiles
+    k = tx * ty
     return {"x": x, "v": np.tile(st["v"], (k, 1)), "w": np.tile(st["w"], (k, 1)),
-            "lx": tiles * lx, "ly": tiles * ly}
+            "lx": tx * lx, "ly": ty * ly}
 
 
-def build_tiled_bed(tiles: int, threads=None, floor_velocity: float = 0.05, slip_rule: str = "truncate"):
+def build_tiled_bed(tiles, threads=None, floor_velocity: float = 0.05, slip_rule: str = "truncate"):
     """The tiled dense bed of shared/bench/device (issue 29's scaling scene) as a
     ``tsubu.Simulation``: ``tiles`` x ``tiles`` copies of the settled bed (tiles = 4: N = 160,000 in
-    a 0.088 m x 0.088 m box), five walls around the whole, the floor sliding along +x at
-    ``floor_velocity`` [m/s], zero tangential history."""
+    a 0.088 m x 0.088 m box; a pair: tiles along x and y), five walls around the whole, the floor
+    sliding along +x at ``floor_velocity`` [m/s], zero tangential history."""
     st = tiled_bed_state(tiles)
     mat = material()
     sim = new_simulation(threads, slip_rule)

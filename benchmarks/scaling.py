@@ -122,12 +122,14 @@ def lammps_walls(lmp: str, choice: str) -> str:
     return os.path.join(LAMMPS_DIR, "walls_shear.lmp" if choice == "classic" else "walls_granular_shear.lmp")
 
 
-def write_bed_data(tiles: int, path: str) -> int:
+def write_bed_data(tiles, path: str) -> int:
+    """The tiled bed (``tiles``: K, or a pair (tiles along x, along y)) as a LAMMPS data file."""
     sys.path.insert(0, HERE)
     import reference_scene as rs
     from compare_lammps import write_lammps_state
     st = rs.tiled_bed_state(tiles)
-    write_lammps_state(path, "DEM dense bed tiled %d x %d (N=%d)" % (tiles, tiles, len(st["x"])), None,
+    tx, ty = (tiles, tiles) if isinstance(tiles, int) else tuple(tiles)
+    write_lammps_state(path, "DEM dense bed tiled %d x %d (N=%d)" % (tx, ty, len(st["x"])), None,
                        st["x"], st["v"], st["w"],
                        bounds=(0.0, st["lx"], 0.0, st["ly"], 0.0, rs.DENSE_ZTOP))
     return len(st["x"])
