@@ -31,6 +31,9 @@ from . import _checks
 __all__ = ["decompose", "Decomposed", "grid_shape", "launched_ranks", "launched_rank"]
 
 _TAG_HALO = 0x7575
+# The automatic margin lets the fastest sphere travel about this many steps between two
+# redistributions (one costs some tens of steps: measured in docs/parallel.md).
+_MARGIN_STEPS = 1000
 
 
 def _mpi():
@@ -99,7 +102,8 @@ class Decomposed:
         ``margin``.
     margin : float
         m: the run stops to move spheres between ranks before any sphere can have moved
-        margin / 2 since the last time.
+        margin / 2 since the last time (automatic unless :func:`decompose` was given one: then
+        from the largest speed at each redistribution).
     redistributions : int
         How many times spheres were moved between ranks.
     imbalance : float or None
@@ -115,7 +119,8 @@ class Decomposed:
         self.balances = 0
         self.comm = comm
         self.shape = tuple(int(s) for s in shape)
-        self.margin = float(margin)
+        self._margin_auto = margin is None
+        self.margin = 0.0 if margin is None else float(margin)
         self.redistributions = 0
         core = simulation._core
         self._core = core
@@ -127,9 +132,7 @@ class Decomposed:
         self._upper = None if box is None else np.asarray(box.upper, dtype=float)
         radii = core.radii()
         self._r_max = comm.allreduce(float(radii.max()) if len(radii) else 0.0, op=_mpi().MAX)
-        # (A contact reaches at most r_i + r_j, a sticky one up to the near list's skin / 10
-        # further.)
-        self.reach = 2.0 * self._r_max + 0.1 * float(core.skin()) + self.margin
+        self._set_reach(self._largest_speed2())
         # One past the largest id handed out (ids are never reused): the next added sphere's id.
         removed = core.removed()["id"]
         self._id_bound = int(max([int(core.get_ids().max()) + 1 if core.size else 0] +
@@ -153,6 +156,27 @@ class Decomposed:
         self._set_lists(ids[keep], x[keep], owner[keep])
 
     # ---- geometry ---------------------------------------------------------------------------
+    def _largest_speed2(self) -> float:
+        """The largest squared speed of any sphere on any rank (a collective call)."""
+        v = self._core.velocities()
+        return self.comm.allreduce(float(np.max(np.einsum("ij,ij->i", v, v))) if len(v) else 0.0,
+                                   op=_mpi().MAX)
+
+    def _set_reach(self, v2: float) -> None:
+        """The automatic margin for the largest squared speed ``v2`` (every rank finds the same),
+        then the reach. Between two redistributions the fastest sphere may travel margin / 2: at
+        ``v`` that takes _MARGIN_STEPS steps. The margin stays within [skin, largest diameter]:
+        no thinner than the lists' own skin (as LAMMPS's ghost cut-off is the force cut-off plus
+        the neighbour skin), no thicker than the halo of a slow scene needs."""
+        core = self._core
+        if self._margin_auto:
+            step = float(core.dt) if core.dt > 0 else float(core.time_step())
+            wanted = 2.0 * _MARGIN_STEPS * step * math.sqrt(v2)
+            self.margin = max(float(core.skin()), min(2.0 * self._r_max, wanted))
+        # (A contact reaches at most r_i + r_j, a sticky one up to the near list's skin / 10
+        # further.)
+        self.reach = 2.0 * self._r_max + 0.1 * float(core.skin()) + self.margin
+
     def _balanced_cuts(self, x, ids, everywhere=False):
         """Cuts that give each box about as many spheres: along each axis, at the quantiles of
         the centres (all spheres, each counted once: by its owner, or by every rank when each
@@ -464,9 +488,8 @@ class Decomposed:
         ids = np.arange(first, first + n, dtype=np.int64)
         self._id_bound += sum(counts)
         self._r_max = max(self._r_max, comm.allreduce(float(r.max()) if n else 0.0, op=_mpi().MAX))
-        if self._margin_default:
-            self.margin = 2.0 * self._r_max
-        self.reach = 2.0 * self._r_max + 0.1 * float(core.skin()) + self.margin
+        self._set_reach(max(self._largest_speed2(), comm.allreduce(
+            float(np.max(np.einsum("ij,ij->i", v, v))) if n else 0.0, op=_mpi().MAX)))
         owner = self.owner_of(x)
         outgoing = []
         for q in range(self._size):
@@ -536,6 +559,8 @@ class Decomposed:
         ids = core.get_ids()  # (sorted)
         x = core.positions()
         self._harvest_removed(ids)
+        if self._margin_auto:
+            self._set_reach(self._largest_speed2())
         counts = comm.allgather(int(np.count_nonzero(np.isin(self._owned, ids, assume_unique=True))))
         mean = sum(counts) / len(counts)
         if balance or (self.imbalance is not None and max(counts) > self.imbalance * max(mean, 1.0)):
@@ -793,8 +818,10 @@ def decompose(simulation, comm=None, shape=None, margin: float | None = None,
         Boxes along x, y, z, their product the number of ranks (default: :func:`grid_shape` of
         the spheres' extent, leaving the axis of gravity uncut).
     margin : float, optional
-        m, > 0: how much further than the contacts' reach the halo holds spheres (default: the
-        largest diameter). A larger margin redistributes less often and holds more copies.
+        m, > 0: how much further than the contacts' reach the halo holds spheres. A larger
+        margin redistributes less often and holds more copies. Default: automatic, set again at
+        each redistribution so that the fastest sphere takes about 1,000 steps to travel
+        margin / 2, within [the neighbour lists' skin, the largest diameter].
     imbalance : float or None, default 1.2
         Move the cuts at a redistribution when the busiest rank owns more than this many times
         the mean number of spheres (> 1); None: only on :meth:`Decomposed.balance`.
@@ -872,10 +899,7 @@ def decompose(simulation, comm=None, shape=None, margin: float | None = None,
     if box is not None and box.flow is not None and shape["xyz".index(box.flow)] != 1:
         raise ValueError(f"shape {shape!r} cuts the Lees-Edwards flow axis {box.flow!r}, whose images "
                          "slide along it: leave it uncut (1)")
-    if margin is None:
-        r = core.radii()
-        margin = 2.0 * float(r.max()) if len(r) else 0.0
-    else:
+    if margin is not None:
         margin = _checks.positive("margin", margin)
     if imbalance is not None:
         imbalance = _checks.positive("imbalance", imbalance)
@@ -883,5 +907,4 @@ def decompose(simulation, comm=None, shape=None, margin: float | None = None,
             raise ValueError(f"imbalance must be > 1 (or None), got {imbalance!r}")
     part = Decomposed(simulation, comm, shape, margin, imbalance)
     part._given = given
-    part._margin_default = margin is None or margin == 0.0
     return part
