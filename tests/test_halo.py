@@ -54,16 +54,46 @@ def test_pack_and_unpack_carry_state_by_id_and_skip_ids_not_held():
     sim = scene.build()
     core = sim._core
     ids = np.array([5, 3, 10_000, 7], dtype=np.int64)  # (10,000 is no sphere: skipped)
-    buf = np.zeros(9 * len(ids))
-    assert core._pack_state(ids, buf) == 3
+    buf = np.zeros(1 + 10 * len(ids))
+    # Before any run there is no list to tell who touches whom: every sphere held travels, each
+    # with its place in the list (as not all of the list's do).
+    assert core._pack_halo(ids, buf) == 1 + 10 * 3
+    assert buf[0] == 3
     x, v, w = sim.positions, sim.velocities, sim.angular_velocities
-    for k, i in enumerate([5, 3, 7]):
-        assert np.array_equal(buf[9 * k:9 * k + 9], np.concatenate([x[i], v[i], w[i]]))
-    buf[:9] = [1, 2, 3, 4, 5, 6, 7, 8, 9]
-    assert core._unpack_state(ids, buf) == 4 * 4 + 5 * 5 + 6 * 6
+    for k, (place, i) in enumerate([(0, 5), (1, 3), (3, 7)]):
+        record = buf[1 + 10 * k:11 + 10 * k]
+        assert record[0] == place
+        assert np.array_equal(record[1:], np.concatenate([x[i], v[i], w[i]]))
+    buf[2:11] = [1, 2, 3, 4, 5, 6, 7, 8, 9]
+    assert core._unpack_halo(ids, buf) == max(4 * 4 + 5 * 5 + 6 * 6, *(np.sum(v[[3, 7]] ** 2, axis=1)))
     assert np.array_equal(sim.positions[5], [1, 2, 3]) and np.array_equal(sim.velocities[5], [4, 5, 6])
-    with pytest.raises(ValueError, match="9 values per id"):
-        core._pack_state(ids, np.zeros(3))
+    with pytest.raises(ValueError, match="1 \\+ 10 values per id"):
+        core._pack_halo(ids, np.zeros(3))
+    with pytest.raises(ValueError, match="another list"):
+        core._unpack_halo(ids[:2], buf)
+
+
+def test_only_spheres_with_pair_contacts_travel_each_step():
+    """A copy with no pair in the near list steps on its rank as on its owner's (the walls,
+    gravity and imposed motions are the same everywhere): only the others' state travels."""
+    sim = scene.build()
+    lone = sim.add_spheres([[0.05, 0.02, 0.06]], 0.001, sim.materials[0])[0]  # far from all
+    sim.run(20_000)
+    core = sim._core
+    c = sim.contacts()
+    pair = c["j"] >= 0  # (a wall contact's j is -1)
+    touching = np.unique(np.concatenate([c["i"][pair], c["j"][pair]]))
+    assert len(touching) > 10 and lone not in touching
+    ids = np.concatenate([[lone], touching]).astype(np.int64)
+    buf = np.zeros(1 + 10 * len(ids))
+    n = core._pack_halo(ids, buf)
+    m = int(buf[0])
+    # Every sphere in contact travels (with its place: not all do), the lone sphere does not.
+    assert m == len(touching) and n == 1 + 10 * m
+    places = buf[1::10][:m].astype(int)
+    assert 0 not in places and set(range(1, len(ids))) <= set(places)
+    # All of a list travel: no places then.
+    assert core._pack_halo(touching.astype(np.int64), buf) == 1 + 9 * len(touching)
 
 
 def test_insert_refuses_ids_in_use_repeated_or_negative():

@@ -114,18 +114,22 @@ void register_boundaries(py::class_<Sim>& cls) {
           "_drop_spheres",
           [](Sim& s, const Ids& ids, bool carry) { s.drop_spheres(count_of(ids), ids.data(), carry); },
           "ids"_a, "carry"_a = true)
-      .def("_pack_state",
+      .def("_pack_halo",
            [](const Sim& s, const Ids& ids, py::array_t<double, py::array::c_style> out) {
-             if (static_cast<std::size_t>(out.size()) < 9 * count_of(ids))
-               throw py::value_error("out must hold 9 values per id");
-             return s.pack_state(count_of(ids), ids.data(), out.mutable_data());
+             if (static_cast<std::size_t>(out.size()) < 1 + 10 * count_of(ids))
+               throw py::value_error("out must hold 1 + 10 values per id");
+             return s.pack_halo(count_of(ids), ids.data(), out.mutable_data());
            },
            "ids"_a, "out"_a)
-      .def("_unpack_state",
+      .def("_unpack_halo",
            [](Sim& s, const Ids& ids, const Array& in) {
-             if (static_cast<std::size_t>(in.size()) < 9 * count_of(ids))
-               throw py::value_error("in must hold 9 values per id");
-             return s.unpack_state(count_of(ids), ids.data(), in.data());
+             if (in.size() < 1) throw py::value_error("values must hold the count first");
+             const double m = in.data()[0];
+             const std::size_t n = count_of(ids);
+             if (!(m >= 0 && m <= static_cast<double>(n)) ||
+                 static_cast<std::size_t>(in.size()) < 1 + (m == n ? 9 : 10) * static_cast<std::size_t>(m))
+               throw py::value_error("values: a message for another list (count " + std::to_string(m) + ")");
+             return s.unpack_halo(n, ids.data(), in.data());
            },
            "ids"_a, "values"_a)
       .def(

@@ -88,14 +88,56 @@ std::size_t Simulation::pack_state(std::size_t n, const Id* ids, double* out, st
   return m;
 }
 
-double Simulation::unpack_state(std::size_t n, const Id* ids, const double* in) {
-  ParticleStore& ps = particles_.arrays();
-  double v2 = 0;
+// The per-step halo message to one rank: 1 + 9 m or 1 + 10 m values. A rank that holds a copy
+// of a sphere steps it as its owner does, with the same bits, unless the sphere has a pair
+// contact there (the rank may lack the partner): so only spheres with near-pair entries (the
+// step's only pair contacts) travel, and a falling cloud's copies step on their own. out[0] = m,
+// the spheres that travel; then, if all n do, their x, v, w in the list's order, else each one's
+// place in the list and its x, v, w. (A periodic box's ghosts hold entries for their sources:
+// there every listed sphere travels.)
+std::size_t Simulation::pack_halo(std::size_t n, const Id* ids, double* out) const {
+  const ParticleStore& ps = particles_.arrays();
+  const std::size_t rows = particles_.size();
+  const Array<Index>& own = lists_.near_offset;
+  const Array<Index>& rev = lists_.near_rev_offset;
+  const bool known = domain_.ghosts() == 0 && own.size() == rows + 1 && rev.size() == rows + 1;
+  // (A sphere an outlet removed this step is gone on every rank that held it.)
+  const auto travels = [&](Id id) {
+    if (!particles_.has(id)) return false;
+    const std::size_t i = static_cast<std::size_t>(particles_.index(id));
+    return !known || own[i + 1] > own[i] || rev[i + 1] > rev[i];
+  };
   std::size_t m = 0;
+  for (std::size_t k = 0; k < n; ++k) m += travels(ids[k]);
+  out[0] = static_cast<double>(m);
+  const bool all = m == n;
+  double* o = out + 1;
   for (std::size_t k = 0; k < n; ++k) {
+    if (!all && !travels(ids[k])) continue;
+    const std::size_t i = static_cast<std::size_t>(particles_.index(ids[k]));
+    if (!all) *o++ = static_cast<double>(k);
+    for (int c = 0; c < 3; ++c) {
+      o[c] = ps.x[3 * i + c];
+      o[3 + c] = ps.v[3 * i + c];
+      o[6 + c] = ps.w[3 * i + c];
+    }
+    o += 9;
+  }
+  return static_cast<std::size_t>(o - out);
+}
+
+double Simulation::unpack_halo(std::size_t n, const Id* ids, const double* in) {
+  ParticleStore& ps = particles_.arrays();
+  const std::size_t m = static_cast<std::size_t>(in[0]);
+  require(m <= n, [&] { return "unpack_halo: " + std::to_string(m) + " spheres for a list of " + std::to_string(n); });
+  const bool all = m == n;
+  double v2 = 0;
+  const double* o = in + 1;
+  for (std::size_t r = 0; r < m; ++r, o += 9) {
+    const std::size_t k = all ? r : static_cast<std::size_t>(*o++);
+    require(k < n, [&] { return "unpack_halo: place " + std::to_string(k) + " outside a list of " + std::to_string(n); });
     if (!particles_.has(ids[k])) continue;
     const std::size_t i = static_cast<std::size_t>(particles_.index(ids[k]));
-    const double* o = in + 9 * m++;
     for (int c = 0; c < 3; ++c) {
       ps.x[3 * i + c] = o[c];
       ps.v[3 * i + c] = o[3 + c];

@@ -251,8 +251,10 @@ class Decomposed:
     def _buffers(self) -> None:
         if self._periodic:
             self._core._set_own(self._owned)
-        self._send_buffers = {q: np.empty(9 * len(v)) for q, v in self._send.items()}
-        self._recv_buffers = {q: np.empty(9 * len(v)) for q, v in self._recv.items()}
+        # (A message: a count, then 9 values per sphere, or 10 when only some travel:
+        # Simulation::pack_halo.)
+        self._send_buffers = {q: np.empty(1 + 10 * len(v)) for q, v in self._send.items()}
+        self._recv_buffers = {q: np.empty(1 + 10 * len(v)) for q, v in self._recv.items()}
 
     def _fixed_table(self):
         f = self._core.fixed_motion()
@@ -273,12 +275,12 @@ class Decomposed:
             requests.append(comm.Irecv(buf, source=q, tag=_TAG_HALO))
         for q, ids in self._send.items():
             buf = self._send_buffers[q]
-            n = core._pack_state(ids, buf)
-            requests.append(comm.Isend(buf[: 9 * n], dest=q, tag=_TAG_HALO))
+            n = core._pack_halo(ids, buf)
+            requests.append(comm.Isend(buf[:n], dest=q, tag=_TAG_HALO))
         MPI.Request.Waitall(requests)
         v2 = 0.0
         for q, ids in self._recv.items():
-            v2 = max(v2, core._unpack_state(ids, self._recv_buffers[q]))
+            v2 = max(v2, core._unpack_halo(ids, self._recv_buffers[q]))
         # The step's largest speeds over every rank: what the lists book. In a periodic box,
         # the largest over the spheres each rank owns, as one process finds them (it wraps
         # spheres at rebuilds, which must fall at the same steps); elsewhere any bound will do.

@@ -79,7 +79,8 @@ class Simulation : private detail::RunHooks {
   void drop_spheres(std::size_t count, const Id* ids, bool carry = true);
   std::size_t pack_state(std::size_t n, const Id* ids, double* out, std::int64_t* images = nullptr,
                          double* slid = nullptr) const;  // (images: 3 a sphere, slid: 1, if given)
-  double unpack_state(std::size_t n, const Id* ids, const double* in);
+  std::size_t pack_halo(std::size_t n, const Id* ids, double* out) const;  // (halo.cpp)
+  double unpack_halo(std::size_t n, const Id* ids, const double* in);
   using Exchange = std::function<std::array<double, 3>(double vmax2, double rel2)>;
   void set_exchange(Exchange exchange) { exchange_ = std::move(exchange); }
   bool has_exchange() const { return static_cast<bool>(exchange_); }
@@ -158,7 +159,6 @@ class Simulation : private detail::RunHooks {
   static constexpr double kMaxWallSpeed = 299792458.0;
   const Plane& plane(int wall) const;
   int plane_count() const { return walls_.count(); }
-
   Options& options() { return opt_; }
   const Options& options() const { return opt_; }
 
