@@ -307,40 +307,52 @@ def report(scene: str, runs: dict, configs: list, identical: bool, n_runs: int, 
             "lammps_runs": {str(k): v for k, v in (lammps or {}).items()}, "identical": identical}
 
 
-def plot(results: dict, path: str) -> None:
-    """Speed-up (strong) or efficiency (weak) against cores, tsubu's ranks and LAMMPS's."""
+def plot(results: list, path: str) -> None:
+    """Rates against cores, log-log: strong scaling (the whole scene's particle-steps/s) and weak
+    scaling (per core), for tsubu's ranks (each thread count a line) and LAMMPS's, from one or
+    more runs (``results``: (label, the JSON this script writes) pairs). Rates, not speed-ups: on
+    a shared machine a slow one-core run would bend every speed-up."""
     try:
         import matplotlib
         matplotlib.use("Agg")
         import matplotlib.pyplot as plt
+        import matplotlib.ticker
     except ImportError:
         raise SystemExit('--plot needs matplotlib: pip install "tsubu[bench]"')
-    scenes = results["scenes"]
-    fig, axes = plt.subplots(1, len(scenes), figsize=(5.2 * len(scenes), 4.2), squeeze=False)
-    for ax, (name, sc) in zip(axes[0], scenes.items()):
-        rows = list(sc["summary"].values())
-        weak = sc["weak"]
-        y = "efficiency" if weak else "median_ratio"
-        for t in sorted({r["threads"] for r in rows}):
-            pts = [r for r in rows if r["threads"] == t]
-            c = [r["ranks"] * r["threads"] for r in pts]
-            c0 = rows[0]["ranks"] * rows[0]["threads"]
-            ax.plot(c, [r[y] * (1 if weak else c0) for r in pts], "o-",
-                    label=f"tsubu, {t} thread{'s' if t > 1 else ''} a rank")
-        lam = [r for r in rows if "lammps_rate" in r and r["threads"] == 1]
-        if lam:
-            c = [r["ranks"] for r in lam]
-            c0 = rows[0]["ranks"] * rows[0]["threads"]
-            ax.plot(c, [r["lammps_speedup"] * (c0 / cc if weak else c0) for r, cc in zip(lam, c)], "s--",
-                    label="LAMMPS (MPI ranks)")
-        most = max(r["ranks"] * r["threads"] for r in rows)
-        ax.plot([1, most], [1, 1] if weak else [1, most], ":", color="grey", label="linear")
-        ax.set_xlabel("cores (ranks x threads)")
-        ax.set_ylabel("parallel efficiency" if weak else "speed-up over one core")
-        ax.set_title(f"{name}" + (" (10,000 a core)" if weak else f" (N = {rows[0]['n']:,})"), fontsize=9)
-        ax.legend(fontsize=8)
+    panels = sorted({sc["weak"] for _, res in results for sc in res["scenes"].values()})
+    fig, axes = plt.subplots(1, len(panels), figsize=(5.4 * len(panels), 4.3), squeeze=False)
+    for ax, weak in zip(axes[0], panels):
+        for k, (name, res) in enumerate(results):
+            for scene, sc in res["scenes"].items():
+                if sc["weak"] != weak:
+                    continue
+                rows = list(sc["summary"].values())
+                per = (lambda c: 1e6 * c) if weak else (lambda c: 1e6)
+                for t in sorted({r["threads"] for r in rows}):
+                    pts = [r for r in rows if r["threads"] == t]
+                    c = [r["ranks"] * r["threads"] for r in pts]
+                    tag = "" if t == 1 else f", {t} threads a rank"
+                    ax.plot(c, [r["median_rate"] / per(cc) for r, cc in zip(pts, c)], "o-", color=f"C{k}",
+                            alpha=1.0 if t == 1 else 0.5,
+                            label=f"tsubu {scene}{tag} ({name})")
+                lam = [r for r in rows if "lammps_rate" in r and r["threads"] == 1]
+                if lam:
+                    c = [r["ranks"] for r in lam]
+                    ax.plot(c, [r["lammps_rate"] / per(cc) for r, cc in zip(lam, c)], "s--", color=f"C{k}",
+                            label=f"LAMMPS ({name})")
+        ax.set_xscale("log", base=2)
+        ax.set_yscale("log")
+        ax.xaxis.set_major_formatter(matplotlib.ticker.FormatStrFormatter("%g"))
+        ax.yaxis.set_major_formatter(matplotlib.ticker.FormatStrFormatter("%g"))
+        ax.yaxis.set_minor_formatter(matplotlib.ticker.FormatStrFormatter("%g"))
+        ax.set_xlabel("cores (MPI ranks x threads)")
+        ax.set_ylabel("M particle-steps/s per core (10,000 spheres a core)" if weak
+                      else "M particle-steps/s (N = 160,000)")
+        ax.set_title("weak scaling" if weak else "strong scaling", fontsize=9)
+        ax.legend(fontsize=7)
         ax.grid(alpha=0.3)
-    fig.suptitle(f"{results['machine']['cpu']}, {results['machine']['usable_cpus']} cores", fontsize=9)
+    m = results[0][1]["machine"]
+    fig.suptitle(f"{m['cpu']}, {m['usable_cpus']} cores", fontsize=9)
     fig.tight_layout()
     fig.savefig(path, dpi=120)
     print(f"wrote {path}")
@@ -364,6 +376,8 @@ def main(argv=None) -> int:
     ap.add_argument("--mpiexec-args", default="", help="extra mpiexec arguments, both codes (e.g. '-bind-to core')")
     ap.add_argument("--json", default=None, help="write every run's figures here")
     ap.add_argument("--plot", default=None, help="draw speed-up / efficiency against cores here (matplotlib)")
+    ap.add_argument("--replot", nargs="+", default=None, metavar="LABEL=JSON",
+                    help="redraw --plot from earlier runs' --json files (each LABEL=path), and exit")
     ap.add_argument("--worker", action="store_true", help=argparse.SUPPRESS)
     ap.add_argument("--threads", type=int, default=1, help=argparse.SUPPRESS)
     ap.add_argument("--scene", default="drop", help=argparse.SUPPRESS)
@@ -373,6 +387,16 @@ def main(argv=None) -> int:
         args.tiles = str(tiles_for(args.n))
     if args.worker:
         worker(args)
+        return 0
+    if args.replot:
+        if not args.plot:
+            ap.error("--replot needs --plot (the image to write)")
+        runs = []
+        for item in args.replot:
+            name, _, path = item.rpartition("=")
+            with open(path) as f:
+                runs.append((name or os.path.basename(path), json.load(f)))
+        plot(runs, args.plot)
         return 0
     if args.weak and args.scenes != ["bed"]:
         ap.error("--weak scales the bed only: add --scenes bed")
@@ -425,7 +449,7 @@ def main(argv=None) -> int:
         with open(args.json, "w") as f:
             json.dump(out, f, indent=1)
     if args.plot:
-        plot(out, args.plot)
+        plot([("this run", out)], args.plot)
     return 0 if ok else 1
 
 
