@@ -45,6 +45,20 @@ def _same(a_path, b_path):
     return a
 
 
+def _same_sums(a_path, b_path):
+    """Decomposed.energy and .stress (reductions over the ranks' shares) against one process's:
+    each sphere's stress bracket bit for bit (a rank holds all of its own spheres' contacts),
+    the sums to round-off (summed over the ranks, not over all spheres in id order)."""
+    a, b = np.load(f"{a_path}.sums.npz"), np.load(f"{b_path}.sums.npz")
+    assert a.files == b.files
+    assert np.array_equal(a["brackets"], b["brackets"])
+    scale = np.abs(a["brackets"]).sum(axis=0) / 0.03 / 0.024 / 0.02
+    assert np.all(np.abs(a["stress"] - b["stress"]) <= 1e-12 * scale + 1e-300)
+    for k in (f for f in a.files if f.startswith("energy_")):
+        size = max(abs(float(a[k])), abs(float(a["energy_kinetic"])), abs(float(a["energy_gravitational"])))
+        assert abs(float(a[k]) - float(b[k])) <= 1e-12 * size, (k, float(a[k]), float(b[k]))
+
+
 @pytest.fixture(scope="module")
 def reference(tmp_path_factory):
     out = tmp_path_factory.mktemp("mpi") / "one.npz"
@@ -62,6 +76,7 @@ def test_any_number_of_ranks_gives_the_bits_of_one_process(reference, tmp_path, 
     out = tmp_path / f"ranks{ranks}.npz"
     said = _run(["decomposed", STEPS, out], ranks=ranks)
     _same(reference, out)
+    _same_sums(reference, out)
     if ranks > 1:  # spheres moved between ranks, and every rank owned some at the end
         words = said.split()
         assert int(words[words.index("redistributions") + 1]) > 0

@@ -175,14 +175,15 @@ void register_state(py::class_<Sim>& cls) {
            })
       .def(
           "energy",
-          [](const Sim& s, bool at_positions) {
-            const tsubu::Energy e = at_positions ? s.energy_now() : s.energy();
+          [](const Sim& s, bool at_positions, bool share) {
+            if (at_positions && share) throw py::value_error("energy: a rank's share is of the last force evaluation");
+            const tsubu::Energy e = at_positions ? s.energy_now() : s.energy(share);
             return py::dict("translational"_a = e.translational, "rotational"_a = e.rotational,
                             "kinetic"_a = e.kinetic(), "gravitational"_a = e.gravitational,
                             "elastic"_a = e.elastic, "total"_a = e.total(),
                             "dissipated"_a = e.dissipated, "step_correction"_a = e.step_correction);
           },
-          "at_positions"_a = false)
+          "at_positions"_a = false, "share"_a = false)
       .def("contacts", &contacts_dict)
       .def("stress", &stress_arrays, "volume"_a, "rate"_a = 0.0, "flow"_a = 0, "gradient"_a = 2,
            "reference"_a = 0.0, "per_particle"_a = false)

@@ -143,11 +143,19 @@ void Simulation::get_torques(double* out) const {
   });
 }
 
-Energy Simulation::sphere_energy() const {
+// A rank of a decomposed scene books its share of the energy (share): its own spheres (set_own)
+// and the contacts they own (a pair: its lower id's owner; a wall contact: its sphere's), which
+// the ranks' shares sum to once each (docs/parallel.md).
+static bool books(const std::vector<char>& own, bool share, Id id) {
+  return !share || (static_cast<std::size_t>(id) < own.size() && own[static_cast<std::size_t>(id)]);
+}
+
+Energy Simulation::sphere_energy(bool share) const {
   Energy e;
   // Serial sums in id order: the same digits whatever the thread count.
   const ParticleStore& ps = particles_.arrays();
-  particles_.for_each_id([&](Id, Index k) {
+  particles_.for_each_id([&](Id id, Index k) {
+    if (!books(own_, share, id)) return;
     const double m = ps.mass[k];
     e.translational += 0.5 * m * vec3(ps.v.data(), k).squaredNorm();
     // (a fixed sphere's inverse inertia is 0: its own, I = 2/5 m r^2 (1.3))
@@ -160,11 +168,12 @@ Energy Simulation::sphere_energy() const {
   return e;
 }
 
-Energy Simulation::energy() const {
-  Energy e = sphere_energy();
+Energy Simulation::energy(bool share) const {
+  Energy e = sphere_energy(share);
   if (!ran_) return e;
   const CompiledLaw& law = this->law();
   for (const ContactInfo& c : contacts()) {
+    if (!books(own_, share, c.i)) continue;
     const int mi = particles_.arrays().material[particles_.index(c.i)];
     const int mj = c.wall >= 0 ? walls_.material(c.wall) : particles_.arrays().material[particles_.index(c.j)];
     const PairParams& p = pairs_(mi, mj);

@@ -89,7 +89,9 @@ class Decomposed:
     ----------
     simulation : Simulation
         This rank's spheres (its own and its halo) as a :class:`tsubu.Simulation`. Read it for
-        what it holds; do not add or remove spheres, walls or contacts on it directly.
+        what it holds; do not add or remove spheres, walls or contacts on it directly. Its
+        energy and stress count the copies too: the whole scene's are :meth:`energy` and
+        :meth:`stress`.
     comm : mpi4py.MPI.Comm
         The ranks.
     shape : tuple of 3 ints
@@ -249,8 +251,8 @@ class Decomposed:
         self._buffers()
 
     def _buffers(self) -> None:
-        if self._periodic:
-            self._core._set_own(self._owned)
+        # (Its own spheres: what a periodic rank's speeds and every rank's energy share count.)
+        self._core._set_own(self._owned)
         # (A message: a count, then 9 values per sphere, or 10 when only some travel:
         # Simulation::pack_halo.)
         self._send_buffers = {q: np.empty(1 + 10 * len(v)) for q, v in self._send.items()}
@@ -651,6 +653,69 @@ class Decomposed:
         order = np.lexsort((out["id"], out["step"]))
         return {k: a[order] for k, a in out.items()}
 
+    def energy(self) -> dict:
+        """The whole scene's energies [J], the terms of :meth:`tsubu.Simulation.energy`, on every
+        rank (a collective call), without gathering the scene: each rank books its share (its
+        own spheres, and the contacts they own: a pair by its lower id's owner, a wall contact by
+        its sphere's), and the shares are summed in rank order. Equal to one process's energies
+        to round-off (one process sums over all spheres in id order), the same on every rank.
+
+        Returns
+        -------
+        dict of float
+            ``translational``, ``rotational``, ``kinetic``, ``gravitational``, ``elastic``,
+            ``total``, ``dissipated`` and ``step_correction`` (0), as ``Simulation.energy()``.
+        """
+        shares = self.comm.allgather(self._core.energy(False, True))
+        whole = {}
+        for key in shares[0]:
+            total = 0.0
+            for share in shares:
+                total += share[key]
+            whole[key] = total
+        return whole
+
+    def stress(self, volume=None, per_particle: bool = False) -> np.ndarray:
+        """The whole scene's Cauchy stress (Love-Weber, as :meth:`tsubu.Simulation.stress`), on
+        every rank (a collective call). A rank's own spheres have all their contacts there, so
+        their brackets sigma_i V are one process's, bit for bit; the stress sums them over each
+        rank, then over the ranks in rank order: one process's to round-off.
+
+        Parameters
+        ----------
+        volume : float, optional
+            As ``Simulation.stress``: the volume [m^3], > 0; default the periodic box's (a scene
+            without a box needs it, unless ``per_particle``).
+        per_particle : bool
+            If True, every sphere's bracket sigma_i V [N m], shape (N, 3, 3), in id order (the
+            whole scene's, on every rank: N x 72 bytes each).
+
+        Returns
+        -------
+        numpy.ndarray
+            (3, 3) [Pa], or (N, 3, 3) [N m]; read-only.
+        """
+        brackets = self.simulation.stress(volume=volume, per_particle=True)
+        box = self.simulation.box
+        if not per_particle:
+            if volume is None and box is None:
+                raise ValueError("stress: volume=None needs a periodic box (set_box); a walled or open "
+                                 "scene needs an explicit volume [m^3], e.g. the volume its walls enclose")
+            volume = float(box.volume) if volume is None else float(volume)
+        ids = self._core.get_ids()
+        own = np.isin(ids, self._owned, assume_unique=True)
+        if per_particle:
+            parts = self.comm.allgather((ids[own], brackets[own]))
+            every = np.concatenate([p[0] for p in parts])
+            out = np.concatenate([p[1] for p in parts]).reshape(-1, 3, 3)[np.argsort(every, kind="stable")]
+        else:
+            out = np.zeros((3, 3))
+            for share in self.comm.allgather(brackets[own].sum(axis=0)):
+                out += share
+            out /= volume
+        out.flags.writeable = False
+        return out
+
     def gather(self, root: int = 0):
         """The whole scene as one :class:`tsubu.Simulation` on rank ``root`` (None on the
         others): every sphere with its state, every contact, as one process would hold them
@@ -831,7 +896,8 @@ def decompose(simulation, comm=None, shape=None, margin: float | None = None,
     Returns
     -------
     Decomposed
-        This rank's part; ``run``, ``gather``, ``removed`` and ``balance`` are collective.
+        This rank's part; ``run``, ``gather``, ``removed``, ``balance``, ``energy`` and
+        ``stress`` are collective.
 
     Raises
     ------

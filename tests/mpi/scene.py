@@ -125,6 +125,13 @@ def record(sim, path):
              ci=c["i"], cj=c["j"], cwall=c["wall"], cxi=c["tangential_displacement"], cf=c["force"])
 
 
+VOLUME = 0.03 * 0.024 * 0.02  # (a volume for the stress: any will do to compare)
+
+
+def record_sums(energy, stress, brackets, path):
+    np.savez(path, **{"energy_" + k: v for k, v in energy.items()}, stress=stress, brackets=brackets)
+
+
 def main(argv):
     mode, steps, out = argv[0], int(argv[1]), argv[2]
     rest = argv[3:]
@@ -171,6 +178,7 @@ def main(argv):
     if mode == "reference":
         sim.run(steps)
         record(sim, out)
+        record_sums(sim.energy(), sim.stress(VOLUME), sim.stress(per_particle=True), out + ".sums.npz")
         return
     from mpi4py import MPI
 
@@ -178,11 +186,17 @@ def main(argv):
 
     d = parallel.decompose(sim)
     d.run(steps)
+    # The reductions, without gathering: the same on every rank.
+    sums = (d.energy(), d.stress(VOLUME), d.stress(per_particle=True))
+    every = MPI.COMM_WORLD.gather(sums)
     whole = d.gather()
     sizes = MPI.COMM_WORLD.gather(len(d.owned))
     if whole is not None:
         assert sum(sizes) == whole.size, (sizes, whole.size)
         record(whole, out)
+        for e, st, b in every[1:]:
+            assert e == every[0][0] and np.array_equal(st, every[0][1]) and np.array_equal(b, every[0][2])
+        record_sums(*sums, out + ".sums.npz")
         if save:
             whole.save(save)
         print("redistributions", d.redistributions, "balances", d.balances, "owned", sizes)

@@ -305,7 +305,7 @@ class Simulation : private detail::RunHooks {
     energy_ref_valid_ = false;
   }
 
-  Energy energy() const;
+  Energy energy(bool share = false) const;  // share: a rank's (set_own; energy.cpp)
   // energy() with the elastic part at the current positions (energy() takes it from the last
   // force evaluation, a step behind the kinetic and gravitational parts), with the step
   // correction: the balance a stability check should compare.
@@ -479,7 +479,7 @@ class Simulation : private detail::RunHooks {
   // elastic energy.
   void check_energy(const Energy& start) const;
   // energy() without the elastic part: the spheres' kinetic, gravitational and dissipated sums.
-  Energy sphere_energy() const;
+  Energy sphere_energy(bool share = false) const;
   int threads() const;
   template <class F>
   void for_each_contact_type(F&& f) const;
