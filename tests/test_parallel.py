@@ -161,6 +161,7 @@ def test_a_periodic_chute_cut_across_its_periodic_axes_gives_the_bits_of_one_pro
     out = tmp_path / f"chute{ranks}.npz"
     _run(["decomposed", STEPS, out, "--chute"], ranks=ranks)
     _same(chute_reference, out)
+    _same_sums(chute_reference, out)
 
 
 @pytest.mark.slow
@@ -193,6 +194,7 @@ def test_a_lees_edwards_cell_gives_the_bits_of_one_process(shear_reference, tmp_
         out = tmp_path / f"shear{ranks}.npz"
         _run(["decomposed", STEPS, out, *flags], ranks=ranks)
         _same(reference, out)
+        _same_sums(reference, out)
     half = STEPS // 2
     saved = tmp_path / "three.tsubu"  # (the slides and images go into the checkpoint)
     _run(["decomposed", half, tmp_path / "three.npz", "--save", saved, *flags], ranks=3)
