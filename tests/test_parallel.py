@@ -214,6 +214,22 @@ def test_a_checkpoint_written_on_three_ranks_resumes_on_two_and_on_one(reference
     _same(reference, tmp_path / "one.npz")
 
 
+def test_energy_and_stress_of_one_rank_are_the_scenes():
+    from mpi4py import MPI
+    sys.path.insert(0, str(SCENE.parent))
+    import scene
+
+    one, other = scene.build(), scene.build()
+    one.run(300)
+    part = parallel.decompose(other, comm=MPI.COMM_SELF)
+    part.run(300)
+    assert part.energy() == one.energy()  # (one rank's share is everything, in the same order)
+    assert np.array_equal(part.stress(1e-5), one.stress(1e-5))
+    assert np.array_equal(part.stress(per_particle=True), one.stress(per_particle=True))
+    with pytest.raises(ValueError, match="needs a periodic box"):
+        part.stress()
+
+
 def test_grid_shape_cuts_the_longest_extent_first():
     assert parallel.grid_shape(1, (1, 1, 1)) == (1, 1, 1)
     assert parallel.grid_shape(2, (1, 1, 3)) == (1, 1, 2)
