@@ -104,8 +104,8 @@ class Decomposed:
         ``margin``.
     margin : float
         m: the run stops to move spheres between ranks before any sphere can have moved
-        margin / 2 since the last time (automatic unless :func:`decompose` was given one: then
-        from the largest speed at each redistribution).
+        margin / 2 since the last time. Unless :func:`decompose` was given one, it is set again
+        from the largest speed at each redistribution.
     redistributions : int
         How many times spheres were moved between ranks.
     imbalance : float or None
@@ -158,9 +158,10 @@ class Decomposed:
         self._set_lists(ids[keep], x[keep], owner[keep])
 
     # ---- geometry ---------------------------------------------------------------------------
-    def _largest_speed2(self) -> float:
-        """The largest squared speed of any sphere on any rank (a collective call)."""
-        v = self._core.velocities()
+    def _largest_speed2(self, v=None) -> float:
+        """The largest squared speed of the spheres held (or of the velocities ``v``) on any
+        rank (a collective call)."""
+        v = self._core.velocities() if v is None else v
         return self.comm.allreduce(float(np.max(np.einsum("ij,ij->i", v, v))) if len(v) else 0.0,
                                    op=_mpi().MAX)
 
@@ -497,8 +498,7 @@ class Decomposed:
         ids = np.arange(first, first + n, dtype=np.int64)
         self._id_bound += sum(counts)
         self._r_max = max(self._r_max, comm.allreduce(float(r.max()) if n else 0.0, op=_mpi().MAX))
-        self._set_reach(max(self._largest_speed2(), comm.allreduce(
-            float(np.max(np.einsum("ij,ij->i", v, v))) if n else 0.0, op=_mpi().MAX)))
+        self._set_reach(max(self._largest_speed2(), self._largest_speed2(v)))
         owner = self.owner_of(x)
         outgoing = []
         for q in range(self._size):
