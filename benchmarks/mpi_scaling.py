@@ -1,5 +1,6 @@
 #!/usr/bin/env python3
-"""MPI scaling of ``tsubu.parallel`` (issue 30): one scene cut over R ranks, one thread each.
+"""MPI scaling of ``tsubu.parallel`` (issue 30): one scene cut over R ranks of T threads each
+(one thread unless ``--ranks`` says ``RxT``), optionally side by side with LAMMPS on R x T ranks.
 
 What it measures: for each scene and each rank count R (``--ranks``, default 1 2), the rate of
 ``Decomposed.run`` in particle-steps/s (N x timed steps / wall seconds), each run a fresh
@@ -40,6 +41,16 @@ Usage (from the repository root; about 1.5-2 minutes with the defaults on 2 core
     PYTHONPATH=python python benchmarks/mpi_scaling.py --n 20000 --steps 100 --repeats 1   # quick
     PYTHONPATH=python python benchmarks/mpi_scaling.py --scenes bed --tiles 4 --ranks 1 2 4
     PYTHONPATH=python python benchmarks/mpi_scaling.py --json mpi_scaling.json
+    # a 16-core machine: strong and weak scaling against LAMMPS, ranks x threads
+    PYTHONPATH=python python benchmarks/mpi_scaling.py --scenes bed --tiles 4 --ranks 1 2 4 8 16 \
+        --lammps lmp --mpiexec-args "-bind-to core" --json strong.json
+    PYTHONPATH=python python benchmarks/mpi_scaling.py --scenes bed --weak --ranks 1 2 4 8 16 --lammps lmp
+    PYTHONPATH=python python benchmarks/mpi_scaling.py --scenes bed --tiles 4 --ranks 16 4x4 2x8 1x16
+    # the figure of docs/benchmarks.md from saved runs
+    PYTHONPATH=python python benchmarks/mpi_scaling.py --plot out.png --replot "lend 2=benchmarks/results/mpi16_strong.json"
+
+With ``--weak`` the bed holds 10,000 spheres a core (R x T cores: the bed tiled a x b times,
+a b = R T) and the efficiency column is the rate a core against the first count's.
 
 Needs mpi4py and an MPI library (``pip install "tsubu[mpi]"``: mpi4py and the mpich wheel).
 """
