@@ -35,6 +35,21 @@ def test_the_tiled_bed_is_the_shared_tiling():
         assert np.array_equal(tiled["v"][rows], bed["v"]) and np.array_equal(tiled["w"][rows], bed["w"])
 
 
+def test_a_rectangular_bed_tiles_as_the_square_one_does():
+    """mpi_scaling.py's weak scaling: a x b tiles, a b = cores, as square as the count allows."""
+    import mpi_scaling as ms
+
+    assert [ms.tiles_for_cores(c) for c in (1, 2, 4, 8, 16, 6)] == [(1, 1), (2, 1), (2, 2), (4, 2), (4, 4), (3, 2)]
+    square, rect = rs.tiled_bed_state(2), rs.tiled_bed_state((2, 1))
+    n = len(rs.dense_bed_state()["x"])
+    assert len(rect["x"]) == 2 * n and rect["lx"] == square["lx"] and 2 * rect["ly"] == square["ly"]
+    # (square: copies (0,0), (0,1), (1,0), (1,1); the 2 x 1 bed: (0,0), (1,0))
+    assert np.array_equal(rect["x"][:n], square["x"][:n]) and np.array_equal(rect["x"][n:], square["x"][2 * n:3 * n])
+    assert ms.parse_config("4x2") == (4, 2) and ms.parse_config("16") == (16, 1)
+    with pytest.raises(Exception, match="RxT"):
+        ms.parse_config("four")
+
+
 def test_the_tiled_bed_scene_has_its_walls_and_sliding_floor():
     sim = rs.build_tiled_bed(2, threads=1)
     assert len(sim) == 4 * len(rs.dense_bed_state()["x"])
