@@ -111,7 +111,7 @@ def label(cfg: tuple) -> str:
 def build(scene: str, n: int, tiles: tuple, threads: int = 1):
     import reference_scene as rs
     if scene == "bed":
-        return rs.build_tiled_bed(tiles if tiles[0] != tiles[1] else tiles[0], threads=threads)
+        return rs.build_tiled_bed(tiles, threads=threads)
     return rs.build(n, threads=threads)
 
 
@@ -225,16 +225,16 @@ def one_run(args, scene: str, cfg: tuple, tiles: tuple, out: str) -> dict:
     return run_result(cmd, env)
 
 
+_LAMMPS_DATA = {}  # tiles -> (data file, N): each bed written once a run of this script
+
+
 def one_lammps(args, tiles: tuple, cores: int, work: str) -> dict:
     """The same bed in LAMMPS on ``cores`` MPI ranks (scaling.py's deck and log parsing)."""
     import scaling
-    data = os.path.join(work, f"bed_{tiles[0]}x{tiles[1]}.lmp")
-    if not os.path.exists(data):
-        n = scaling.write_bed_data(tiles, data)
-        with open(data + ".n", "w") as f:
-            f.write(str(n))
-    with open(data + ".n") as f:
-        n = int(f.read())
+    if tiles not in _LAMMPS_DATA:
+        data = os.path.join(work, f"bed_{tiles[0]}x{tiles[1]}.lmp")
+        _LAMMPS_DATA[tiles] = (data, scaling.write_bed_data(tiles, data))
+    data, n = _LAMMPS_DATA[tiles]
     walls = scaling.lammps_walls(args.lammps, "auto")
     largs = argparse.Namespace(lammps=args.lammps, bed_steps=args.warmup + args.steps, mpiexec=mpiexec_path(),
                                mpiexec_args=args.mpiexec_args, mpiexec_always=True)
@@ -338,7 +338,7 @@ def plot(results: list, path: str) -> None:
                 if sc["weak"] != weak:
                     continue
                 rows = list(sc["summary"].values())
-                per = (lambda c: 1e6 * c) if weak else (lambda c: 1e6)
+                per = (lambda c: 1e6 * (c if weak else 1))  # (M particle-steps/s, a core if weak)
                 for t in sorted({r["threads"] for r in rows}):
                     pts = [r for r in rows if r["threads"] == t]
                     c = [r["ranks"] * r["threads"] for r in pts]
@@ -386,7 +386,7 @@ def main(argv=None) -> int:
     ap.add_argument("--margin", type=float, default=None, help="decompose's margin, m (default: its own)")
     ap.add_argument("--mpiexec-args", default="", help="extra mpiexec arguments, both codes (e.g. '-bind-to core')")
     ap.add_argument("--json", default=None, help="write every run's figures here")
-    ap.add_argument("--plot", default=None, help="draw speed-up / efficiency against cores here (matplotlib)")
+    ap.add_argument("--plot", default=None, help="draw the rates against cores here (matplotlib)")
     ap.add_argument("--replot", nargs="+", default=None, metavar="LABEL=JSON",
                     help="redraw --plot from earlier runs' --json files (each LABEL=path), and exit")
     ap.add_argument("--worker", action="store_true", help=argparse.SUPPRESS)

@@ -672,13 +672,7 @@ class Decomposed:
             ``total``, ``dissipated`` and ``step_correction`` (0), as ``Simulation.energy()``.
         """
         shares = self.comm.allgather(self._core.energy(False, True))
-        whole = {}
-        for key in shares[0]:
-            total = 0.0
-            for share in shares:
-                total += share[key]
-            whole[key] = total
-        return whole
+        return {key: sum(share[key] for share in shares) for key in shares[0]}
 
     def stress(self, volume=None, per_particle: bool = False) -> np.ndarray:
         """The whole scene's Cauchy stress (Love-Weber, as :meth:`tsubu.Simulation.stress`), on
