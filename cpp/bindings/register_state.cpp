@@ -201,6 +201,7 @@ void register_state(py::class_<Sim>& cls) {
            })
       .def_property_readonly("rebuild_count", &Sim::rebuild_count)
       .def_property_readonly("near_refresh_count", &Sim::near_refresh_count)
+      .def_property_readonly("near_reach", &Sim::near_reach)
       .def_property_readonly("fused_step_count", &Sim::fused_step_count)
       .def("phase_seconds",
            [](const Sim& s) {

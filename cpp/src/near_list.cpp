@@ -1,4 +1,4 @@
-// The near list (neighbor_list.hpp): from the Verlet list, the pairs within r_i + r_j + skin/10
+// The near list (neighbor_list.hpp): from the Verlet list, the pairs within r_i + r_j + reach
 // with their contact state carried over, the reverse index, the near-wall subset, the busy
 // particles, the particle pass's flat sum list, and the law's cached terms of each entry.
 #include <algorithm>
@@ -18,9 +18,10 @@ void NeighborList::refresh_near(const Context& c, bool transfer, bool reordered,
   ContactStore& cs = c.contacts;
   const double* x = ps.x.data();
   const double* r = ps.radius.data();
+  choose_near_fraction();
   const double reach = near_skin();
 
-  // 1. The pairs of the Verlet list within r_i + r_j + skin/10, in the Verlet list's order:
+  // 1. The pairs of the Verlet list within r_i + r_j + reach, in the Verlet list's order:
   //    counted, then stored.
   auto near = [&](std::size_t i, Index j) {
     const double cut = r[i] + r[j] + reach;
@@ -167,7 +168,27 @@ void NeighborList::refresh_near(const Context& c, bool transfer, bool reordered,
   index_entries(c);
   cache_terms(c);
   moved_near = 0;
+  near_steps = 0;
   ++refreshes;
+}
+
+// A wider near list is refreshed less often but scanned at every step. Per step, with f the
+// reach as a fraction of the skin: the scan costs about c_s N_near(f), N_near(f) ~ N_0 + k f
+// (k: the Verlet pairs per unit f beyond the last reach, taken as evenly spread up to the
+// skin), and refreshes c_r N_verlet / T(f), T(f) = f skin / (2 u) steps with u the moved
+// bound's growth per step since the last refresh. The sum is least at
+// f = sqrt((c_r / c_s) N_verlet 2 u / (skin k)). c_r / c_s = kRefreshCost was measured on the
+// Lees–Edwards shear cell (docs/benchmarks.md, "The near list's reach"). The lists' contents and
+// every result are the same for any reach: only the work changes.
+void NeighborList::choose_near_fraction() {
+  constexpr double kRefreshCost = 4.0;
+  const double verlet = pair_offset.empty() ? 0.0 : double(pair_offset.back());
+  const double near = near_offset.empty() ? 0.0 : double(near_offset.back());
+  const double shell = (verlet - near) / (1.0 - near_fraction);
+  if (near_steps <= 0 || !(moved_near > 0) || !(skin > 0) || !(shell > 0)) return;
+  const double per_step = moved_near / double(near_steps);
+  const double f = std::sqrt(kRefreshCost * verlet * 2.0 * per_step / (skin * shell));
+  near_fraction = std::isfinite(f) ? std::clamp(f, kNearMin, kNearMax) : kNearMin;
 }
 
 void NeighborList::refresh_walls(const Context& c, bool transfer, bool reordered) {

@@ -3,9 +3,11 @@
 // Each sphere's bracket  -m v' (x) v' + sum_c (x_c - x_i) (x) f_c  is summed over its entries
 // in the order the particle pass takes them (its wall entries, the pairs it owns by partner id,
 // the pairs where it is the partner by owner id; a ghost partner's share goes to its source),
-// and the total over the spheres in id order: serial, the same bits for any thread count.
+// and the total over the spheres in id order: the same bits for any thread count.
+#include <algorithm>
 #include <cmath>
 #include <string>
+#include <vector>
 
 #include "tsubu/contact/geometry.hpp"
 #include "tsubu/simulation.hpp"
@@ -52,10 +54,10 @@ void Simulation::stress(double volume, const MeanFlow& flow, double* sigma, doub
     else add_outer(out, (1 - s) * branch, -f);
   };
 
-  double total[9] = {0, 0, 0, 0, 0, 0, 0, 0, 0};
-  std::size_t row = 0;
-  particles_.for_each_id([&](Id, Index i) {
-    double b[9] = {0, 0, 0, 0, 0, 0, 0, 0, 0};
+  // Each sphere's bracket in index order (memory order; on the run's threads), then the total
+  // over the spheres in id order: the same additions as a walk in id order, so the same bits.
+  auto bracket = [&](Index i, double* b) {
+    std::fill(b, b + 9, 0.0);
     if (lists) {
       const Vec3 xi = vec3(x, i);
       for (Index e = lists_.wall_offset[i]; e < lists_.wall_offset[i + 1]; ++e) {
@@ -72,6 +74,16 @@ void Simulation::stress(double volume, const MeanFlow& flow, double* sigma, doub
     Vec3 vp = vec3(v, i);
     if (flow.rate != 0) vp[flow.flow] -= flow.rate * (x[3 * i + flow.gradient] - flow.reference);
     add_outer(b, -ps.mass[i] * vp, vp);
+  };
+  std::vector<double> brackets(9 * n);
+  const long ni = static_cast<long>(n);
+#pragma omp parallel for schedule(static) num_threads(threads_used())
+  for (long i = 0; i < ni; ++i) bracket(static_cast<Index>(i), brackets.data() + 9 * i);
+
+  double total[9] = {0, 0, 0, 0, 0, 0, 0, 0, 0};
+  std::size_t row = 0;
+  particles_.for_each_id([&](Id, Index i) {
+    const double* b = brackets.data() + 9 * static_cast<std::size_t>(i);
     for (int k = 0; k < 9; ++k) total[k] += b[k];
     if (per_particle)
       for (int k = 0; k < 9; ++k) per_particle[9 * row + k] = b[k];

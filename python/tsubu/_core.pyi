@@ -469,6 +469,9 @@ class Simulation:
     def max_overlap(self, arg1: typing.SupportsFloat | typing.SupportsIndex) -> None:
         ...
     @property
+    def near_reach(self) -> float:
+        ...
+    @property
     def near_refresh_count(self) -> int:
         ...
     @property

@@ -1665,9 +1665,19 @@ class Simulation:
 
     @property
     def near_refresh_count(self) -> int:
-        """Refreshes of the near list (the pairs within r_i + r_j + skin/10 that the step loop
-        reads; docs/architecture.md) so far, rebuilds included."""
+        """Refreshes of the near list (the pairs within r_i + r_j + :attr:`near_reach` that the
+        step loop reads; docs/architecture.md) so far, rebuilds included."""
         return self._core.near_refresh_count
+
+    @property
+    def near_reach(self) -> float:
+        """How far beyond contact the near list reaches now [m], between a tenth and half of the
+        skin.
+
+        It is chosen at each refresh so that the list's scans and its refreshes cost least
+        together: a fast scene refreshes less often with a wider list, a slow one scans a thinner
+        one (docs/architecture.md). Results do not depend on it, only the work does."""
+        return self._core.near_reach
 
     @property
     def fused_step_count(self) -> int:

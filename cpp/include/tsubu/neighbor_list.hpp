@@ -2,11 +2,11 @@
 //
 // The Verlet list holds every pair within r_i + r_j + skin, each once, owned by the lower id, an
 // owner's partners sorted by id. The near list, refreshed from it when particles may have moved
-// by a tenth of the skin, holds the pairs within r_i + r_j + skin/10, each entry with its contact
-// state (ContactStore); the step loop touches only it. Its entries keep the owner order and the
-// partner-id order of the Verlet list, and a reverse index sorted by owner id lets every
-// particle sum its contacts in an order fixed by ids: bit-identical results for any thread
-// count and any rebuild schedule. The near-wall list holds the (sphere, wall, element) entries
+// by half its reach (skin/10 to skin/2, near_fraction), holds the pairs within r_i + r_j + reach,
+// each entry with its contact state (ContactStore); the step loop touches only it. Its entries
+// keep the owner order and the partner-id order of the Verlet list, and a reverse index sorted
+// by owner id lets every particle sum its contacts in an order fixed by ids: bit-identical
+// results for any thread count, any rebuild schedule and any reach. The near-wall list holds the (sphere, wall, element) entries
 // within r + skin of a wall, by sphere. A rebuild re-sorts the particles by cell.
 #pragma once
 #include <algorithm>
@@ -53,7 +53,7 @@ class NeighborList {
   Array<double> near_entry;
   // The walls' two levels, as the pairs': the reach list, the (wall, element) keys within
   // r + skin of each sphere, rows by sphere (built at a rebuild, keys only); and the near-wall
-  // list, its entries within r + skin/10 (all of them if a wall moves, and every touching one),
+  // list, its entries within r + the reach (all of them if a wall moves, and every touching one),
   // rows by sphere in the reach list's order, refreshed with the near list. The near-wall
   // entries hold the wall contact state (ContactStore::walls, wall_tangent, wall_clear), so
   // that a step finds a sphere's few entries side by side, not scattered among the tens of
@@ -106,13 +106,18 @@ class NeighborList {
   // Bounds on the distance any particle moved since the last rebuild and since the last
   // refresh (sums of dt max|v| over the steps).
   double moved = 0, moved_near = 0;
+  long near_steps = 0;  // the bookings (steps) since the last refresh
   double skin = 0;  // the skin of the last rebuild
   bool valid = false;  // false: the next run rebuilds first
   long rebuilds = 0, refreshes = 0;
 
   // Whether the lists exist for n particles (a run built them).
   bool built(std::size_t n) const { return near_offset.size() == n + 1; }
-  double near_skin() const { return 0.1 * skin; }
+  // The near list's reach beyond contact: a fraction of the skin, at least a tenth (a sticky
+  // contact's reach), chosen at each refresh (choose_near_fraction).
+  double near_fraction = kNearMin;
+  static constexpr double kNearMin = 0.1, kNearMax = 0.5;
+  double near_skin() const { return near_fraction * skin; }
   // Whether a rebuild is due: two particles may have closed by the skin, or a wall moved too
   // far; or the lists are invalid, or `every_step` (a testing aid).
   bool needs_rebuild(const Walls& walls, bool every_step) const {
@@ -129,6 +134,7 @@ class NeighborList {
   void book_moved(double distance) {
     moved += distance;
     moved_near += distance;
+    ++near_steps;
   }
 
   // Rebuilds every list with the given skin, re-sorting the particles by cell; with
@@ -207,6 +213,8 @@ class NeighborList {
   // over by (owner id, partner id), with `wall_transfer` the stashed wall state by (sphere,
   // wall, element); `reordered`: the particles were re-sorted since the stash.
   void refresh_near(const Context& c, bool transfer, bool reordered, bool wall_transfer);
+  // The near list's next reach (near_fraction), from what the last one cost: see near_list.cpp.
+  void choose_near_fraction();
   // The near-wall list from the reach list (refresh_near's part).
   void refresh_walls(const Context& c, bool transfer, bool reordered);
   // Moves the near-wall list's rows, keys, state and records into the stash.

@@ -378,9 +378,9 @@ class Simulation : private detail::RunHooks {
   // Pairs in the current list (ids, lower first): all pairs within r_i + r_j + skin.
   std::vector<std::array<Id, 2>> neighbor_pairs() const;
   long rebuild_count() const { return lists_.rebuilds; }
-  // Pairs in the Verlet list (within r_i + r_j + skin at the last rebuild).
-  std::size_t neighbor_pair_count() const { return lists_.pair_partner.size(); }
+  std::size_t neighbor_pair_count() const { return lists_.pair_partner.size(); }  // (the Verlet list's)
   long near_refresh_count() const { return lists_.refreshes; }
+  double near_reach() const { return lists_.near_skin(); }  // (m; NeighborList::near_fraction)
   // Steps whose particle pass also evaluated the next step's contacts (step.hpp, fused_pass).
   long fused_step_count() const { return run_.fused_steps; }
   // Bytes held by the engine's arrays (their capacity), by group: particles, verlet list, near
@@ -407,7 +407,7 @@ class Simulation : private detail::RunHooks {
   // (a pair's splits the branch vector x_i - x_j at c_i / (c_i + c_j), c = r - overlap / 2, the
   // law's lever; a wall's is ContactInfo::wall_point). Row-major 3x3 into `sigma` (9 values);
   // `per_particle` (may be null): each sphere's bracket, sigma V, in N m, 9 values per sphere
-  // in id order, which sum (in id order) to sigma V. Serial: the same bits for any thread
+  // in id order, which sum (in id order) to sigma V. The same bits for any thread
   // count. Throws InvalidArgument for a volume that is not finite and positive or bad axes.
   void stress(double volume, const MeanFlow& flow, double* sigma, double* per_particle = nullptr) const;
 

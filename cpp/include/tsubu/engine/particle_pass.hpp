@@ -59,7 +59,7 @@ struct ParticlePass {
   }
 
   // The sums of a run of busy particles from the flat entry list (Simulation::sum_entry_):
-  // entries [p0, p1) in one loop, each adding its force (and n x F_t moment) to its particle's
+  // entries [p0, p1) in one loop (flat_sums), each adding its force (and n x F_t moment) to its particle's
   // running sum, which restarts at zero at a particle's first entry; the running sums go to
   // out[8 slot] (F in 0-2, T in 4-6), slot counting the particles from 0. The same additions in
   // the same order as ContactSums::at, so the same bits, without the three short loops per
@@ -77,31 +77,46 @@ struct ParticlePass {
     return r;
   }
 
-  [[gnu::noinline]] static void flat_sums(const std::uint32_t* __restrict entry, Index p0, Index p1,
-                                          const ContactSums& sums, const double* rads,
-                                          double* __restrict out) {
+  // The loop takes two runs of whole particles, entries [p0, pm) and [pm, p1), side by side:
+  // each particle's sums are one chain of dependent additions, and two independent chains let
+  // the core overlap them (the Lees–Edwards cell's particle pass: 3 % faster). The second
+  // run's particles take slots from `slot_m` on.
+  [[gnu::noinline]] static void flat_sums(const std::uint32_t* __restrict entry, Index p0, Index pm,
+                                          Index p1, std::int64_t slot_m, const ContactSums& sums,
+                                          const double* rads, double* __restrict out) {
     // Indexed by the kind, so that the loop has no branch for gcc to guess: the arrays read,
     // the sign of the force (F - f is F + (-f), bit for bit).
     const double* force[4] = {sums.pf, sums.pf, sums.wf, sums.wf};
     const double* moment[4] = {sums.pn, sums.pn, sums.wn, sums.wn};
     const double* overlap[4] = {sums.po, sums.po, sums.wo, sums.wo};
     const double sign[4] = {1.0, -1.0, 1.0, 1.0};
-    std::int64_t slot = -1;
-    V4 F{0, 0, 0, 0}, T{0, 0, 0, 0};
-    for (const std::uint32_t *p = entry + p0, *end = entry + p1; p < end; ++p) {
-      const std::uint32_t u = *p, kind = u & 3u;
+    struct Run {
+      std::int64_t slot;
+      V4 F, T;
+    };
+    auto add = [&](Run& run, std::uint32_t u) {
+      const std::uint32_t kind = u & 3u;
       const std::size_t e = u >> 3;
       const std::int64_t first = (u >> 2) & 1u;
       const M4 keep = M4{} + (first - 1);  // all ones but at a particle's first entry: from +0
-      slot += first;
-      F = V4(M4(F) & keep) + sign[kind] * load4(force[kind] + 3 * e);
-      std::memcpy(out + 8 * slot, &F, sizeof F);
+      run.slot += first;
+      run.F = V4(M4(run.F) & keep) + sign[kind] * load4(force[kind] + 3 * e);
+      std::memcpy(out + 8 * run.slot, &run.F, sizeof run.F);
       if constexpr (Features<Law>::kTangential) {  // (1.19): both sides take -(r - overlap/2) n x F_t
-        const double lever = contact_lever(rads[slot], overlap[kind][e]);
-        T = V4(M4(T) & keep) - lever * load4(moment[kind] + 3 * e);
-        std::memcpy(out + 8 * slot + 4, &T, sizeof T);
+        const double lever = contact_lever(rads[run.slot], overlap[kind][e]);
+        run.T = V4(M4(run.T) & keep) - lever * load4(moment[kind] + 3 * e);
+        std::memcpy(out + 8 * run.slot + 4, &run.T, sizeof run.T);
       }
+    };
+    Run a{-1, V4{0, 0, 0, 0}, V4{0, 0, 0, 0}}, b{slot_m - 1, V4{0, 0, 0, 0}, V4{0, 0, 0, 0}};
+    const std::uint32_t *pa = entry + p0, *pb = entry + pm;
+    const Index both = std::min(pm - p0, p1 - pm);
+    for (Index k = 0; k < both; ++k) {
+      add(a, pa[k]);
+      add(b, pb[k]);
     }
+    for (Index k = both; k < pm - p0; ++k) add(a, pa[k]);
+    for (Index k = both; k < p1 - pm; ++k) add(b, pb[k]);
   }
 
   // Particles [c0, c1) (at most kChunk), whose busy ones start at busy[b] (b is moved past
@@ -149,7 +164,9 @@ struct ParticlePass {
         const Index r1 = std::min(b, r0 + kFlatRun);
         double rads[kFlatRun], out[8 * kFlatRun];
         for (Index a = r0; a < r1; ++a) rads[a - r0] = pv.radius[busy[a]];
-        flat_sums(pv.sum_entry, pv.sum_offset[r0], pv.sum_offset[r1], pv.sums, rads, out);
+        const Index rm = r0 + (r1 - r0) / 2;
+        flat_sums(pv.sum_entry, pv.sum_offset[r0], pv.sum_offset[rm], pv.sum_offset[r1], rm - r0,
+                  pv.sums, rads, out);
         for (Index a = r0; a < r1; ++a) {
           const double* o = out + 8 * (a - r0);
           if (loaded[busy[a]])
