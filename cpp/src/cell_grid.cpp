@@ -192,13 +192,14 @@ std::string gib(double bytes) {
 }  // namespace
 
 double NeighborList::bytes_per_pair(const Context& c) {
-  // A Verlet entry (its partner) and, at worst, a near entry: owner, partner, cutoff, reverse
-  // index, summation tag, touch flag, the law's cached terms and contact state (16 doubles when
-  // no run has chosen a law yet), with the lists' 1/8 growth room.
+  // A Verlet entry (its partner, its copy in a rebuild's per-thread parts, a refresh's mark)
+  // and, at worst, a near entry: owner, partner, cutoff, reverse index, summation tag, touch
+  // flag, the law's cached terms and contact state (16 doubles when no run has chosen a law
+  // yet), with the lists' 1/8 growth room.
   int doubles = c.law_chosen ? c.law.entry_width : 0;
   for (int w : EntryStore::widths(c.contacts.pair_shape)) doubles += w;
   if (!c.law_chosen) doubles = std::max(doubles, 16);
-  return 1.125 * (4.0 + 25.0 + 8.0 * doubles);
+  return 1.125 * (9.0 + 25.0 + 8.0 * doubles);
 }
 
 void NeighborList::check_fits(const Context& c, const CellGrid& g, double skin) const {

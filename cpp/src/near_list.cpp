@@ -28,13 +28,20 @@ void NeighborList::refresh_near(const Context& c, bool transfer, bool reordered,
     return c.domain.displacement(vec3(x, i), vec3(x, j)).squaredNorm() < cut * cut;
   };
   // Rows are independent: counted and filled in parallel (the same list for any thread count).
+  // The count marks each Verlet pair kept, so that the fill does not measure it again.
   const long ni = static_cast<long>(n);
   near_offset.resize(n + 1);
   near_offset[0] = 0;
+  Array<std::uint8_t>& kept = near_kept_;
+  kept.resize(pair_partner.size());
 #pragma omp parallel for schedule(static) num_threads(c.threads) if (c.parallel)
   for (long i = 0; i < ni; ++i) {
     Index count = 0;
-    for (Index e = pair_offset[i]; e < pair_offset[i + 1]; ++e) count += near(i, pair_partner[e]);
+    for (Index e = pair_offset[i]; e < pair_offset[i + 1]; ++e) {
+      const bool in = near(i, pair_partner[e]);
+      kept[e] = in;
+      count += in;
+    }
     near_offset[i + 1] = count;
   }
   running_sums(near_offset.data(), ni, scan_threads(c));
@@ -49,7 +56,7 @@ void NeighborList::refresh_near(const Context& c, bool transfer, bool reordered,
     Index q = near_offset[i];
     for (Index e = pair_offset[i]; e < pair_offset[i + 1]; ++e) {
       const Index j = pair_partner[e];
-      if (!near(i, j)) continue;
+      if (!kept[e]) continue;
       near_owner[q] = static_cast<Index>(i);
       near_partner[q] = j;
       near_cut2[q++] = (r[i] + r[j]) * (r[i] + r[j]);

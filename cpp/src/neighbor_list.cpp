@@ -149,22 +149,35 @@ void NeighborList::build_verlet(const Context& c, const CellGrid& grid, double s
           visit_cells(run + lo[2], run + hi[2]);
         }
     };
-    const Index ni = static_cast<Index>(n);
-#pragma omp parallel for schedule(static) num_threads(c.threads) if (c.parallel)
-    for (Index i = 0; i < ni; ++i) {
-      Index count = 0;
-      for_each_neighbor(i, [&](Index) { ++count; });
-      pair_offset[i + 1] = count;
+    // One pass over the candidates (a count first, then a fill, measured each pair twice): each
+    // thread appends its rows' partners, the first thread's in place, the others' to their
+    // parts of verlet_parts_, which then take their places. The same list for any thread count.
+    const long nl = static_cast<long>(n);
+    const int most = scan_threads(c);
+    if (static_cast<int>(verlet_parts_.size()) < most) verlet_parts_.resize(most);
+    pair_partner.clear();
+    int team = 1;
+    auto rows = [&](int t) { return std::array<long, 2>{nl * t / team, nl * (t + 1) / team}; };
+#pragma omp parallel num_threads(most) if (most > 1)
+    {
+      const auto [t, nt] = list_loops::part();
+#pragma omp single
+      team = nt;
+      Array<Index>& out = t == 0 ? pair_partner : verlet_parts_[t];
+      out.clear();
+      const auto [lo, hi] = rows(t);
+      for (long i = lo; i < hi; ++i) {
+        const std::size_t start = out.size();
+        for_each_neighbor(static_cast<Index>(i), [&](Index j) { out.push_back(j); });
+        insertion_sort(out.data() + start, out.data() + out.size(), [&](Index j) { return id[j]; });
+        pair_offset[i + 1] = static_cast<Index>(out.size() - start);
+      }
     }
-    running_sums(pair_offset.data(), static_cast<long>(n), scan_threads(c));
+    running_sums(pair_offset.data(), nl, most);
     pair_partner.resize(static_cast<std::size_t>(pair_offset[n]));
-#pragma omp parallel for schedule(static) num_threads(c.threads) if (c.parallel)
-    for (Index i = 0; i < ni; ++i) {
-      Index e = pair_offset[i];
-      for_each_neighbor(i, [&](Index j) { pair_partner[e++] = j; });
-      insertion_sort(pair_partner.data() + pair_offset[i], pair_partner.data() + pair_offset[i + 1],
-                     [&](Index j) { return id[j]; });
-    }
+#pragma omp parallel for schedule(static, 1) num_threads(most) if (team > 1)
+    for (int t = 1; t < team; ++t)
+      std::copy(verlet_parts_[t].begin(), verlet_parts_[t].end(), pair_partner.begin() + pair_offset[rows(t)[0]]);
   };
   if (ghost_start) build(std::true_type{});
   else build(std::false_type{});
@@ -360,9 +373,12 @@ std::size_t NeighborList::wall_bytes() const {
                         sheet_offset, sheet_entry, sheet_slot, sheet_room);
 }
 std::size_t NeighborList::scratch_bytes() const {
-  return capacity_bytes(cell_start_, cell_of_, cell_key_, perm_, old_index_of_, active, scratch_,
-                        scratch_int_, reach_to_, reach_keep_, wall_rows_, sheet_mark_, wall_near_next_, sheet_rows_[0], sheet_rows_[1],
-                        sheet_rows_[2], clear_stash_, tangent_stash_);
+  std::size_t parts = 0;
+  for (const Array<Index>& a : verlet_parts_) parts += capacity_bytes(a);
+  return parts + capacity_bytes(near_kept_, cell_start_, cell_of_, cell_key_, perm_, old_index_of_,
+                                active, scratch_, scratch_int_, reach_to_, reach_keep_, wall_rows_,
+                                sheet_mark_, wall_near_next_, sheet_rows_[0], sheet_rows_[1],
+                                sheet_rows_[2], clear_stash_, tangent_stash_);
 }
 
 }  // namespace tsubu

@@ -245,6 +245,8 @@ class NeighborList {
   Array<CellKey> cell_key_;
   Array<double> scratch_;
   Array<Index> scratch_int_;
+  std::vector<Array<Index>> verlet_parts_;  // build_verlet: the partners of each thread's rows (but the first's)
+  Array<std::uint8_t> near_kept_;  // refresh_near: 1 for each Verlet pair within the reach
   // gather_sheets: each position's mark, each sphere's positions, sheets and sheet entries
   // (running sums), and the positions kept.
   Array<Index> sheet_mark_, wall_near_next_;
