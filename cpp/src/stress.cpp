@@ -54,10 +54,11 @@ void Simulation::stress(double volume, const MeanFlow& flow, double* sigma, doub
     else add_outer(out, (1 - s) * branch, -f);
   };
 
-  // Each sphere's bracket in index order (memory order; on the run's threads), then the total
-  // over the spheres in id order: the same additions as a walk in id order, so the same bits.
-  auto bracket = [&](Index i, double* b) {
-    std::fill(b, b + 9, 0.0);
+  // Each sphere's bracket, computed in index order (memory order; on the run's threads), then
+  // the total over the spheres in id order: the same additions as a walk in id order, so the
+  // same bits.
+  auto bracket = [&](Index i, double* out) {
+    double b[9] = {0, 0, 0, 0, 0, 0, 0, 0, 0};  // (a local: kept in registers, not in `out`)
     if (lists) {
       const Vec3 xi = vec3(x, i);
       for (Index e = lists_.wall_offset[i]; e < lists_.wall_offset[i + 1]; ++e) {
@@ -74,21 +75,25 @@ void Simulation::stress(double volume, const MeanFlow& flow, double* sigma, doub
     Vec3 vp = vec3(v, i);
     if (flow.rate != 0) vp[flow.flow] -= flow.rate * (x[3 * i + flow.gradient] - flow.reference);
     add_outer(b, -ps.mass[i] * vp, vp);
+    std::copy(b, b + 9, out);
   };
-  std::vector<double> brackets(9 * n);
+  // The brackets go to their rows in id order (into `per_particle` where asked), so that the
+  // total reads them in order: a walk in id order, reading at random, took longer than the
+  // brackets themselves.
+  std::vector<double> rows;
+  double* out = per_particle;
+  if (!out) {
+    rows.resize(9 * n);
+    out = rows.data();
+  }
   const long ni = static_cast<long>(n);
 #pragma omp parallel for schedule(static) num_threads(threads_used())
-  for (long i = 0; i < ni; ++i) bracket(static_cast<Index>(i), brackets.data() + 9 * i);
+  for (long i = 0; i < ni; ++i)
+    bracket(static_cast<Index>(i), out + 9 * particles_.rank(particles_.id(static_cast<Index>(i))));
 
   double total[9] = {0, 0, 0, 0, 0, 0, 0, 0, 0};
-  std::size_t row = 0;
-  particles_.for_each_id([&](Id, Index i) {
-    const double* b = brackets.data() + 9 * static_cast<std::size_t>(i);
-    for (int k = 0; k < 9; ++k) total[k] += b[k];
-    if (per_particle)
-      for (int k = 0; k < 9; ++k) per_particle[9 * row + k] = b[k];
-    ++row;
-  });
+  for (std::size_t row = 0; row < n; ++row)
+    for (int k = 0; k < 9; ++k) total[k] += out[9 * row + k];
   for (int k = 0; k < 9; ++k) sigma[k] = total[k] / volume;
 }
 
