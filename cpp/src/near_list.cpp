@@ -499,7 +499,7 @@ void NeighborList::cache_terms(const Context& c) {
       const Key key{material[i], material[j], mass[i], mass[j], inv_mass[i], inv_mass[j], radius[i], radius[j]};
       double* e = near_entry.data() + width * q;
       if (terms && key == last) {
-        std::copy(terms, terms + width, e);
+        for (std::size_t k = 0; k < width; ++k) e[k] = terms[k];  // (a call to memmove costs more)
       } else {
         // A fixed sphere (inverse mass 0, boundary.hpp) is a wall to the other: its mass.
         const double m_pair = key.mi * key.mj / (key.mi + key.mj);

@@ -1373,13 +1373,13 @@ class Simulation:
         built now, as the run would build them: a list that cannot fit raises MemoryError)."""
         if self._core.skin_option <= 0 or self.size == 0:
             return  # the default skin is a fraction of the mean diameter
-        self._core.prepare_run()
-        pairs, n = self._core.neighbor_pair_count, self.size
-        if pairs <= max(SKIN_PAIRS_PER_SPHERE * n, SKIN_PAIRS_FLOOR):
-            return
         diameter = 2.0 * float(np.max(self.radii))
         skin = self.skin
         if skin <= diameter:
+            return  # (before building the lists: the run builds them, once)
+        self._core.prepare_run()
+        pairs, n = self._core.neighbor_pair_count, self.size
+        if pairs <= max(SKIN_PAIRS_PER_SPHERE * n, SKIN_PAIRS_FLOOR):
             return
         held = self.memory_bytes()
         lists = held["verlet list"] + held["near list"]
