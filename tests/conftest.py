@@ -30,6 +30,15 @@ def make_material(**kw) -> tsubu.Material:
     return tsubu.Material(**args)
 
 
+def add_cube_walls(sim: tsubu.Simulation, side: float, material: tsubu.Material) -> None:
+    """Six planes enclosing the cube [0, side]^3, normals inwards."""
+    for ax in range(3):
+        n = np.zeros(3)
+        n[ax] = 1.0
+        sim.add_plane(point=(0.0, 0.0, 0.0), normal=n, material=material)
+        sim.add_plane(point=n * side, normal=-n, material=material)
+
+
 def sphere_mass(radius: float = REF_RADIUS, density: float = REF_DENSITY) -> float:
     """m = density * 4/3 pi r^3."""
     return density * 4.0 / 3.0 * math.pi * radius ** 3

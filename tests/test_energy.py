@@ -22,7 +22,7 @@ import numpy as np
 import pytest
 
 import tsubu
-from conftest import REF_KN, REF_RADIUS, contact_time, make_material, sphere_mass
+from conftest import REF_KN, REF_RADIUS, add_cube_walls, contact_time, make_material, sphere_mass
 
 R = REF_RADIUS
 G = 9.81
@@ -48,11 +48,7 @@ def box_scene(seed: int, side: float = 4e-3) -> tsubu.Simulation:
     vel = rng.normal(size=(8, 3))
     vel *= 0.1 / np.linalg.norm(vel, axis=1)[:, None]
     sim.add_spheres(pos, R, mat, velocities=vel)
-    for ax in range(3):
-        n = np.zeros(3)
-        n[ax] = 1.0
-        sim.add_plane(point=(0.0, 0.0, 0.0), normal=n, material=mat)
-        sim.add_plane(point=n * side, normal=-n, material=mat)
+    add_cube_walls(sim, side, mat)
     return sim
 
 

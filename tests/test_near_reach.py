@@ -21,6 +21,7 @@ import numpy as np
 import pytest
 
 import tsubu
+from conftest import add_cube_walls
 
 R = 0.5e-3
 RHO = 2500.0
@@ -36,12 +37,7 @@ def gas_in_a_box(speed: float, rebuild_every_step: bool = False, seed: int = 3) 
     pitch = 2.2 * R
     grid = np.stack(np.meshgrid(*(np.arange(6),) * 3, indexing="ij"), -1).reshape(-1, 3)
     sim.add_spheres((grid + 0.5) * pitch, R, mat, velocities=rng.normal(0.0, speed, (len(grid), 3)))
-    side = 6 * pitch
-    for ax in range(3):
-        n = np.zeros(3)
-        n[ax] = 1.0
-        sim.add_plane(point=(0.0, 0.0, 0.0), normal=n, material=mat)
-        sim.add_plane(point=n * side, normal=-n, material=mat)
+    add_cube_walls(sim, 6 * pitch, mat)
     return sim
 
 
