@@ -166,15 +166,23 @@ void NeighborList::build_verlet(const Context& c, const CellGrid& grid, double s
       Array<Index>& out = t == 0 ? pair_partner : verlet_parts_[t];
       out.clear();
       const auto [lo, hi] = rows(t);
+      // (Grown by an eighth at a time, as the lists' room: a vector's doubling would hold up to
+      // twice the list. Once warm, a rebuild reuses the capacity.)
+      auto append = [&out](Index j) {
+        if (out.size() == out.capacity()) out.reserve(out.size() + out.size() / 8 + 1024);
+        out.push_back(j);
+      };
       for (long i = lo; i < hi; ++i) {
         const std::size_t start = out.size();
-        for_each_neighbor(static_cast<Index>(i), [&](Index j) { out.push_back(j); });
+        for_each_neighbor(static_cast<Index>(i), append);
         insertion_sort(out.data() + start, out.data() + out.size(), [&](Index j) { return id[j]; });
         pair_offset[i + 1] = static_cast<Index>(out.size() - start);
       }
     }
     running_sums(pair_offset.data(), nl, most);
-    pair_partner.resize(static_cast<std::size_t>(pair_offset[n]));
+    const std::size_t total = static_cast<std::size_t>(pair_offset[n]);
+    if (total > pair_partner.capacity()) pair_partner.reserve(total + total / 8);
+    pair_partner.resize(total);
 #pragma omp parallel for schedule(static, 1) num_threads(most) if (team > 1)
     for (int t = 1; t < team; ++t)
       std::copy(verlet_parts_[t].begin(), verlet_parts_[t].end(), pair_partner.begin() + pair_offset[rows(t)[0]]);
