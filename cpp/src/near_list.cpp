@@ -185,8 +185,8 @@ void NeighborList::refresh_near(const Context& c, bool transfer, bool reordered,
 // skin), and refreshes c_r N_verlet / T(f), T(f) = f skin / (2 u) steps with u the moved
 // bound's growth per step since the last refresh. The sum is least at
 // f = sqrt((c_r / c_s) N_verlet 2 u / (skin k)). c_r / c_s = kRefreshCost was measured on the
-// Lees–Edwards shear cell (docs/benchmarks.md, "The near list's reach"). The lists' contents and
-// every result are the same for any reach: only the work changes.
+// Lees–Edwards shear cell (docs/benchmarks.md, "Lees–Edwards shear against LAMMPS"). The lists'
+// contents and every result are the same for any reach: only the work changes.
 void NeighborList::choose_near_fraction() {
   constexpr double kRefreshCost = 4.0;
   const double verlet = pair_offset.empty() ? 0.0 : double(pair_offset.back());
@@ -479,37 +479,14 @@ void NeighborList::cache_terms(const Context& c) {
   const double *mass = ps.mass.data(), *radius = ps.radius.data(), *inv_mass = ps.inv_mass.data();
   const int* material = ps.material.data();
   const long m = static_cast<long>(near_partner.size());
-#pragma omp parallel num_threads(c.threads) if (c.parallel)
-  {
-    // An entry whose spheres have the last entry's materials, masses (and fixity) and radii takes
-    // its terms (the same function of the same values): in a scene of one size and one
-    // material, one law call per thread.
-    struct Key {
-      int a = -1, b = -1;
-      double mi = 0, mj = 0, ii = 0, ij = 0, ri = 0, rj = 0;
-      bool operator==(const Key& o) const {
-        return a == o.a && b == o.b && mi == o.mi && mj == o.mj && ii == o.ii && ij == o.ij &&
-               ri == o.ri && rj == o.rj;
-      }
-    } last;
-    const double* terms = nullptr;
-#pragma omp for schedule(static)
-    for (long q = 0; q < m; ++q) {
-      const Index i = near_owner[q], j = near_partner[q];
-      const Key key{material[i], material[j], mass[i], mass[j], inv_mass[i], inv_mass[j], radius[i], radius[j]};
-      double* e = near_entry.data() + width * q;
-      if (terms && key == last) {
-        for (std::size_t k = 0; k < width; ++k) e[k] = terms[k];  // (a call to memmove costs more)
-      } else {
-        // A fixed sphere (inverse mass 0, boundary.hpp) is a wall to the other: its mass.
-        const double m_pair = key.mi * key.mj / (key.mi + key.mj);
-        const double m_eff = key.ij == 0 ? key.mi : (key.ii == 0 ? key.mj : m_pair);
-        const double r_eff = key.ri * key.rj / (key.ri + key.rj);
-        c.law.entry_terms(c.pairs(key.a, key.b), m_eff, r_eff, e);
-        last = key;
-      }
-      terms = e;
-    }
+#pragma omp parallel for schedule(static) num_threads(c.threads) if (c.parallel)
+  for (long q = 0; q < m; ++q) {
+    const Index i = near_owner[q], j = near_partner[q];
+    // A fixed sphere (inverse mass 0, boundary.hpp) is a wall to the other: its mass.
+    const double m_pair = mass[i] * mass[j] / (mass[i] + mass[j]);
+    const double m_eff = inv_mass[j] == 0 ? mass[i] : (inv_mass[i] == 0 ? mass[j] : m_pair);
+    const double r_eff = radius[i] * radius[j] / (radius[i] + radius[j]);
+    c.law.entry_terms(c.pairs(material[i], material[j]), m_eff, r_eff, near_entry.data() + width * q);
   }
 }
 

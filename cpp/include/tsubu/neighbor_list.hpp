@@ -6,8 +6,9 @@
 // each entry with its contact state (ContactStore); the step loop touches only it. Its entries
 // keep the owner order and the partner-id order of the Verlet list, and a reverse index sorted
 // by owner id lets every particle sum its contacts in an order fixed by ids: bit-identical
-// results for any thread count, any rebuild schedule and any reach. The near-wall list holds the (sphere, wall, element) entries
-// within r + skin of a wall, by sphere. A rebuild re-sorts the particles by cell.
+// results for any thread count, any rebuild schedule and any reach. The near-wall list holds
+// the (sphere, wall, element) entries within r + skin of a wall, by sphere. A rebuild re-sorts
+// the particles by cell.
 #pragma once
 #include <algorithm>
 #include <array>

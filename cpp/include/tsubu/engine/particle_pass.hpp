@@ -59,8 +59,8 @@ struct ParticlePass {
   }
 
   // The sums of a run of busy particles from the flat entry list (Simulation::sum_entry_):
-  // entries [p0, p1) in one loop (flat_sums), each adding its force (and n x F_t moment) to its particle's
-  // running sum, which restarts at zero at a particle's first entry; the running sums go to
+  // entries [p0, p1) in one loop (flat_sums), each adding its force (and n x F_t moment) to its
+  // particle's running sum, which restarts at zero at a particle's first entry; the sums go to
   // out[8 slot] (F in 0-2, T in 4-6), slot counting the particles from 0. The same additions in
   // the same order as ContactSums::at, so the same bits, without the three short loops per
   // particle whose exits the branch predictor misses.
