@@ -96,6 +96,33 @@ def test_spheres_rolling_over_a_tilted_fine_floor_give_the_bits_of_separate_tria
     assert_same_bits(with_sheets, two)
 
 
+def test_a_sphere_over_the_middle_of_one_large_triangle_lies_on_a_sheet_of_one():
+    """A floor of two large triangles (a tilted square 10 mm wide, one diagonal): a sphere whose
+    reach holds no edge of its one near triangle has a sheet of that triangle alone, whose plane
+    stands while the sphere stays over the face (a hopper's plates). The lowest layer's spheres
+    off the diagonal lie on such sheets; the same bits without sheets and on 2 threads."""
+    def coarse(threads, sheets):
+        v, f = mesh.square((0.0, 0.0, 0.0), 10e-3, (0.0, 0.0, 1.0), 1)
+        v, normal = tilted(v)
+        sim = tsubu.Simulation(dt=DT, threads=threads, parallel_min=0, gravity=(2.0, 1.0, -G))
+        sim._core._mesh_sheets = sheets
+        return pour_onto(sim, (v, f), normal)
+
+    with_sheets = coarse(1, True)
+    most, touched = run_watching(with_sheets, 4000)
+    # (9 spheres in the lowest layer, 3 of them on the diagonal: at least the other 6 on sheets
+    # of one triangle, which separate entries of two triangles could not give)
+    assert most >= 6
+    assert touched == {0, 1}
+    without = coarse(1, False)
+    assert run_watching(without, 4000)[0] == 0
+    assert_same_bits(with_sheets, without)
+    assert np.array_equal(with_sheets.wall_forces(), without.wall_forces())
+    two = coarse(2, True)
+    run_watching(two, 4000)
+    assert_same_bits(with_sheets, two)
+
+
 def test_runs_of_one_step_give_the_bits_of_long_runs_with_sheets():
     """A run start resets what the sheets keep between steps (where the sphere stood over its
     face): 1,000 steps in calls of 1 step, of 100 and in one call give the same bits."""

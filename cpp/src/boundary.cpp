@@ -99,6 +99,9 @@ void Simulation::remove_outgoing() {
   std::vector<int> by;
   // Rows in memory order (the removal does not depend on the order found).
   const std::size_t n = particles_.size();
+  long found = 0;
+  for (const Outlet& outlet : outlets_) found += outlet.count(ps.x.data(), n);
+  if (found == 0) return;
   for (std::size_t o = 0; o < outlets_.size(); ++o) {
     const Outlet& outlet = outlets_[o];
     for (std::size_t i = 0; i < n; ++i)

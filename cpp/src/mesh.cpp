@@ -238,7 +238,7 @@ double segment_distance2(const Vec3& p, const Vec3& a, const Vec3& b) {
 }  // namespace
 
 bool Mesh::flat_sheet(const Vec3& x, double reach, const Index* tris, int n) const {
-  if (n < 2) return false;
+  if (n < 1) return false;
   const Vec3 X = to_body(x);
   const Tri& first = tri_[std::size_t(tris[0])];
   double size = 0, smallest = std::numeric_limits<double>::infinity();

@@ -340,7 +340,7 @@ void NeighborList::gather_sheets(const Context& c) {
         while (q < end && wall_index[wall_near[q]] == w) ++q;
         Index holder = -1;
         bool sheet = false;
-        if (q - p >= 2 && c.walls.kind(int(w)) == Walls::kMesh) {
+        if (c.walls.kind(int(w)) == Walls::kMesh) {
           int touched = 0;
           tris.clear();
           for (Index a = p; a < q; ++a) {
