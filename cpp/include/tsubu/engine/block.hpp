@@ -216,11 +216,6 @@ struct Blocked {
     std::uint8_t* loaded = c.loaded;
     double* diss = c.diss;
     const double dt = c.dt;
-    // An owner's entries are consecutive: its sum is carried in a register while they last,
-    // the same additions in the same order as diss[i] += lost each time, without waiting on
-    // the store of one for the load of the next.
-    Index held = len > 0 ? own[act[0]] : 0;
-    double sum = len > 0 ? diss[held] : 0.0;
     for (int a = 0; a < len; ++a) {
       const Index q = act[a], i = own[q];
       const double lost = store_lane(pairs, q, b, a, dt);
@@ -228,14 +223,8 @@ struct Blocked {
         mark(loaded, i);
         mark(loaded, par[q]);
       }
-      if (i != held) {
-        diss[held] = sum;
-        held = i;
-        sum = diss[i];
-      }
-      sum += lost;  // (+0 where nothing was lost)
+      diss[i] += lost;  // (+0 where nothing was lost)
     }
-    if (len > 0) diss[held] = sum;
   }
 
   // Near-wall entries e[0, len) in contact or just released, as Contacts::wall for each, in
