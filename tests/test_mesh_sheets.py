@@ -57,8 +57,10 @@ def pour_onto(sim, vertices_faces, normal, n_side=3, lift=1.4e-3, seed=11, speed
     return sim
 
 
-def fine_tilted_floor(threads, sheets, gravity=(2.0, 1.0, -G)):
-    v, f = mesh.square((0.0, 0.0, 0.0), 10e-3, (0.0, 0.0, 1.0), 50)  # legs of a fifth of a diameter
+def fine_tilted_floor(threads, sheets, gravity=(2.0, 1.0, -G), divisions=50):
+    """A tilted square floor 10 mm wide of 2 x divisions^2 triangles (50: legs of a fifth of a
+    diameter) with 27 spheres thrown onto it."""
+    v, f = mesh.square((0.0, 0.0, 0.0), 10e-3, (0.0, 0.0, 1.0), divisions)
     v, normal = tilted(v)
     sim = tsubu.Simulation(dt=DT, threads=threads, parallel_min=0, gravity=gravity)
     sim._core._mesh_sheets = sheets
@@ -87,12 +89,18 @@ def test_spheres_rolling_over_a_tilted_fine_floor_give_the_bits_of_separate_tria
     most, touched = run_watching(with_sheets, 6000)
     assert most >= 6  # (the lowest layer lies on sheets: the test measures the sheets' path)
     assert len(touched) >= 30  # (contacts crossed many edges: the sheets' whole path too)
-    without = fine_tilted_floor(1, False)
-    assert run_watching(without, 6000)[0] == 0
+    assert_the_bits_of_separate_triangles(with_sheets, fine_tilted_floor, 6000)
+
+
+def assert_the_bits_of_separate_triangles(with_sheets, build, steps):
+    """``with_sheets`` (``build(1, True)`` run ``steps`` steps) has the bits, wall loads included,
+    of the same run without sheets and of the run with sheets on 2 threads."""
+    without = build(1, False)
+    assert run_watching(without, steps)[0] == 0
     assert_same_bits(with_sheets, without)
     assert np.array_equal(with_sheets.wall_forces(), without.wall_forces())
-    two = fine_tilted_floor(2, True)
-    run_watching(two, 6000)
+    two = build(2, True)
+    run_watching(two, steps)
     assert_same_bits(with_sheets, two)
 
 
@@ -102,11 +110,7 @@ def test_a_sphere_over_the_middle_of_one_large_triangle_lies_on_a_sheet_of_one()
     stands while the sphere stays over the face (a hopper's plates). The lowest layer's spheres
     off the diagonal lie on such sheets; the same bits without sheets and on 2 threads."""
     def coarse(threads, sheets):
-        v, f = mesh.square((0.0, 0.0, 0.0), 10e-3, (0.0, 0.0, 1.0), 1)
-        v, normal = tilted(v)
-        sim = tsubu.Simulation(dt=DT, threads=threads, parallel_min=0, gravity=(2.0, 1.0, -G))
-        sim._core._mesh_sheets = sheets
-        return pour_onto(sim, (v, f), normal)
+        return fine_tilted_floor(threads, sheets, divisions=1)
 
     with_sheets = coarse(1, True)
     most, touched = run_watching(with_sheets, 4000)
@@ -114,13 +118,7 @@ def test_a_sphere_over_the_middle_of_one_large_triangle_lies_on_a_sheet_of_one()
     # of one triangle, which separate entries of two triangles could not give)
     assert most >= 6
     assert touched == {0, 1}
-    without = coarse(1, False)
-    assert run_watching(without, 4000)[0] == 0
-    assert_same_bits(with_sheets, without)
-    assert np.array_equal(with_sheets.wall_forces(), without.wall_forces())
-    two = coarse(2, True)
-    run_watching(two, 4000)
-    assert_same_bits(with_sheets, two)
+    assert_the_bits_of_separate_triangles(with_sheets, coarse, 4000)
 
 
 def test_runs_of_one_step_give_the_bits_of_long_runs_with_sheets():
