@@ -325,7 +325,8 @@ void NeighborList::remove(const Context& c, const Id* gone, std::size_t count) {
   const std::size_t subset_kept = drop_rows(wall_near_offset, row_to, pair_to, &wall_near, &wall_to_);
   remap(wall_near, pair_to, subset_kept, wall_to_);
   compact(wall_sheet, pair_to, subset_kept);  // (a removed sphere's sheets are left unread)
-  for (Index& e : sheet_entry) e = wall_to_[e];
+  // (and their entries at -1: a later removal must not map them again)
+  for (Index& e : sheet_entry) e = e < 0 ? e : wall_to_[e];
 
   measure_reach(c);
   index_entries(c);
