@@ -76,30 +76,26 @@ struct Outlet {
   Vec3 b = Vec3::Zero();  // plane: the unit normal; box: hi
   bool remove_inside = false;  // box only
 
-  bool removes(const double* x) const {
-    if (kind == PlaneOutlet) return (x[0] - a[0]) * b[0] + (x[1] - a[1]) * b[1] + (x[2] - a[2]) * b[2] < 0;
-    const bool inside = x[0] >= a[0] && x[0] <= b[0] && x[1] >= a[1] && x[1] <= b[1] &&
-                        x[2] >= a[2] && x[2] <= b[2];
-    return inside == remove_inside;
-  }
+  bool removes(const double* x) const { return kind == PlaneOutlet ? behind(x) : leaving_box(x); }
   // How many of the n centres x (3 each) it removes: the per-step test, without a branch per
   // sphere, so that the compiler vectorises it (nearly every step finds none).
   long count(const double* x, std::size_t n) const {
     long found = 0;
-    if (kind == PlaneOutlet) {
-      const double ax = a[0], ay = a[1], az = a[2], nx = b[0], ny = b[1], nz = b[2];
-      for (std::size_t i = 0; i < n; ++i)
-        found += (x[3 * i] - ax) * nx + (x[3 * i + 1] - ay) * ny + (x[3 * i + 2] - az) * nz < 0 ? 1 : 0;
-      return found;
-    }
-    const double lx = a[0], ly = a[1], lz = a[2], hx = b[0], hy = b[1], hz = b[2];
-    const bool inner = remove_inside;
-    for (std::size_t i = 0; i < n; ++i) {
-      const bool inside = (x[3 * i] >= lx) & (x[3 * i] <= hx) & (x[3 * i + 1] >= ly) & (x[3 * i + 1] <= hy) &
-                          (x[3 * i + 2] >= lz) & (x[3 * i + 2] <= hz);
-      found += inside == inner ? 1 : 0;
-    }
+    if (kind == PlaneOutlet)
+      for (std::size_t i = 0; i < n; ++i) found += behind(x + 3 * i) ? 1 : 0;
+    else
+      for (std::size_t i = 0; i < n; ++i) found += leaving_box(x + 3 * i) ? 1 : 0;
     return found;
+  }
+
+ private:
+  bool behind(const double* x) const {
+    return (x[0] - a[0]) * b[0] + (x[1] - a[1]) * b[1] + (x[2] - a[2]) * b[2] < 0;
+  }
+  bool leaving_box(const double* x) const {  // (& not &&: no branch)
+    const bool inside = (x[0] >= a[0]) & (x[0] <= b[0]) & (x[1] >= a[1]) & (x[1] <= b[1]) &
+                        (x[2] >= a[2]) & (x[2] <= b[2]);
+    return inside == remove_inside;
   }
 };
 
