@@ -1,6 +1,7 @@
 #include "tsubu/contact_store.hpp"
 
 #include <algorithm>
+#include <vector>
 
 #include "list_loops.hpp"
 
@@ -24,54 +25,70 @@ void ContactStore::size(std::size_t pair_entries, std::size_t wall_entries, int 
 }
 
 void ContactStore::stash_pair_state(const Array<Index>& offset, const Array<Index>& partner,
-                                    const Array<Id>& id, const CompiledLaw& law, int threads) {
-  // Only touching entries have state: copy theirs, compactly, with rows by owner. On one thread
-  // in one pass; on more, rows are counted, then copied, each row by one thread.
+                                    const Array<Id>& id, const CompiledLaw& law, int threads,
+                                    const Array<Index>* verlet) {
+  // Only touching entries have state: theirs, compactly, rows by owner, a zero row after the
+  // last (for the new entries that carry nothing: NeighborList::carry_pairs gathers from it).
+  // The entries are listed in one flat pass without a branch (a touching entry is a coin toss
+  // for the branch predictor, and so is a row's end), then each field gathered.
   const long rows = offset.empty() ? 0 : static_cast<long>(offset.size()) - 1;
+  const long m = rows > 0 ? static_cast<long>(offset[rows]) : 0;
   const double* overlap = pairs.overlap.data();
-  const auto state = pairs.carried();
-  const auto width = EntryStore::widths(pair_shape);
-  std::array<const double*, kFields> now;
-  for (std::size_t k = 0; k < kFields; ++k) now[k] = state[k]->data();
-  auto size_for = [&](std::size_t count) {
-    stash_partner.resize(count);
-    for (std::size_t k = 0; k < kFields; ++k) stash_pairs[k].resize(state[k]->empty() ? 0 : count * width[k]);
-  };
-  // Row i's touching entries into the stash from entry c on; returns the entry after them.
-  auto copy_row = [&](long i, std::size_t c) {
-    for (Index q = offset[i]; q < offset[i + 1]; ++q) {
-      if (!touching(law, overlap[q])) continue;
-      stash_partner[c] = id[partner[q]];
-      for (std::size_t k = 0; k < kFields; ++k) {
-        if (stash_pairs[k].empty()) continue;
-        const std::size_t wd = width[k];
-        const double* from = now[k] + wd * q;
-        std::copy(from, from + wd, stash_pairs[k].data() + wd * c);
-      }
-      ++c;
+  const bool sticky = law.sticky;
+  auto touches = [=](long q) -> Index { return (overlap[q] > 0) | (sticky & (overlap[q] != 0)); };
+  fit(stash_before_, static_cast<std::size_t>(m) + 1);
+  fit(stash_source_, static_cast<std::size_t>(m) + 1);  // (+ 1: where a part's last slot goes)
+  Index* before = stash_before_.data();
+  Index* source = stash_source_.data();
+  const int nt = threads > 1 && m >= list_loops::kScanRows ? threads : 1;
+  std::vector<Index> start(static_cast<std::size_t>(nt) + 1, 0);
+#pragma omp parallel num_threads(nt) if (nt > 1)
+  {
+    const auto [t, team] = list_loops::part();
+    const long lo = m * t / team, hi = m * (t + 1) / team;
+    Index count = 0;
+    for (long q = lo; q < hi; ++q) count += touches(q);
+    start[t + 1] = count;
+#pragma omp barrier
+#pragma omp single
+    for (int u = 0; u < team; ++u) start[u + 1] += start[u];
+    Index c = start[t];
+    const Index end = start[t + 1];
+    for (long q = lo; q < hi; ++q) {
+      before[q] = c;
+      source[c < end ? c : m] = static_cast<Index>(q);
+      c += touches(q);
     }
-    return c;
-  };
+  }
+  const std::size_t count = static_cast<std::size_t>(start[nt]);
+  before[m] = static_cast<Index>(count);
   stash_offset.resize(rows + 1);
   stash_offset[0] = 0;
-  if (threads <= 1) {
-    std::size_t count = 0;
-    for (const double o : pairs.overlap) count += touching(law, o);
-    size_for(count);
-    std::size_t c = 0;
-    for (long i = 0; i < rows; ++i) stash_offset[i + 1] = static_cast<Index>(c = copy_row(i, c));
-    return;
+  const long last = offset.empty() ? -1 : rows;
+  stash_by_verlet = verlet != nullptr;
+  stash_partner.resize(count);
+  const long stashed = static_cast<long>(count);
+#pragma omp parallel num_threads(threads) if (threads > 1)
+  {
+#pragma omp for schedule(static) nowait
+    for (long i = 0; i <= last; ++i) stash_offset[i] = before[offset[i]];
+#pragma omp for schedule(static)
+    for (long c = 0; c < stashed; ++c)
+      stash_partner[c] = verlet ? Id((*verlet)[source[c]]) : id[partner[source[c]]];
   }
-#pragma omp parallel for schedule(static) num_threads(threads)
-  for (long i = 0; i < rows; ++i) {
-    Index count = 0;
-    for (Index q = offset[i]; q < offset[i + 1]; ++q) count += touching(law, overlap[q]) ? 1 : 0;
-    stash_offset[i + 1] = count;
+  const auto state = pairs.carried();
+  const auto width = EntryStore::widths(pair_shape);
+  for (std::size_t k = 0; k < kFields; ++k) {
+    Array<double>& to = stash_pairs[k];
+    if (state[k]->empty()) {
+      to.clear();
+      continue;
+    }
+    const std::size_t wd = static_cast<std::size_t>(width[k]);
+    to.resize((count + 1) * wd);
+    list_loops::gather_rows(to.data(), state[k]->data(), source, stashed, width[k], threads);
+    std::fill(to.begin() + static_cast<std::ptrdiff_t>(count * wd), to.end(), 0.0);
   }
-  list_loops::running_sums(stash_offset.data(), rows, threads);
-  size_for(static_cast<std::size_t>(stash_offset[rows]));
-#pragma omp parallel for schedule(static) num_threads(threads)
-  for (long i = 0; i < rows; ++i) copy_row(i, static_cast<std::size_t>(stash_offset[i]));
 }
 
 namespace {
@@ -84,8 +101,8 @@ std::size_t capacity_bytes(const A&... v) {
 std::size_t ContactStore::bytes() const { return pairs.bytes() + walls.bytes(); }
 
 std::size_t ContactStore::stash_bytes() const {
-  std::size_t b = capacity_bytes(stash_offset, stash_partner, stash_wall_offset, stash_wall_index,
-                                 stash_wall_element);
+  std::size_t b = capacity_bytes(stash_offset, stash_partner, stash_source_, stash_before_, stash_wall_offset,
+                                 stash_wall_index, stash_wall_element);
   for (std::size_t k = 0; k < kFields; ++k) b += capacity_bytes(stash_pairs[k], stash_walls[k]);
   return b;
 }

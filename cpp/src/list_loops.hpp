@@ -94,6 +94,28 @@ inline void zero(Array<double>& a, const NeighborList::Context& c) {
   for (long k = 0; k < size; ++k) p[k] = 0.0;
 }
 
+// to[w q + k] = from[w src[q] + k] for q in [0, n), k in [0, w): rows of w values gathered, on
+// `threads` threads where > 1. The contact state's widths (1, 3, 4) are unrolled: a loop of
+// unknown length per row costs more than the copy.
+template <int W>
+inline void gather_rows(double* __restrict to, const double* __restrict from, const Index* src, long n,
+                        int w, int threads) {
+  const long width = W > 0 ? W : w;
+#pragma omp parallel for schedule(static) num_threads(threads) if (threads > 1)
+  for (long q = 0; q < n; ++q) {
+    const double* f = from + width * src[q];
+    for (long k = 0; k < width; ++k) to[width * q + k] = f[k];
+  }
+}
+inline void gather_rows(double* to, const double* from, const Index* src, long n, int w, int threads) {
+  switch (w) {
+    case 1: return gather_rows<1>(to, from, src, n, w, threads);
+    case 3: return gather_rows<3>(to, from, src, n, w, threads);
+    case 4: return gather_rows<4>(to, from, src, n, w, threads);
+    default: return gather_rows<0>(to, from, src, n, w, threads);
+  }
+}
+
 // The entries' touch flags from their overlaps.
 inline void mark_touching(EntryStore& st, const NeighborList::Context& c) {
   const long size = static_cast<long>(st.overlap.size());

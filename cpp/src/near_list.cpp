@@ -49,6 +49,8 @@ void NeighborList::refresh_near(const Context& c, bool transfer, bool reordered,
   fit_touched(near_owner, m, scan_threads(c));
   fit_touched(near_partner, m, scan_threads(c));
   fit_touched(near_cut2, m, scan_threads(c));
+  fit_touched(near_verlet_, m, scan_threads(c));
+  fit(near_of_verlet_, kept.size());
   // (How far a partner lies down or up the array from its owner: the reverse index's reach.)
   Index below = 0, above = 0;
 #pragma omp parallel for schedule(static) num_threads(c.threads) if (c.parallel) reduction(max : below, above)
@@ -56,7 +58,9 @@ void NeighborList::refresh_near(const Context& c, bool transfer, bool reordered,
     Index q = near_offset[i];
     for (Index e = pair_offset[i]; e < pair_offset[i + 1]; ++e) {
       const Index j = pair_partner[e];
+      near_of_verlet_[e] = kept[e] ? q : -1;
       if (!kept[e]) continue;
+      near_verlet_[q] = e;
       near_owner[q] = static_cast<Index>(i);
       near_partner[q] = j;
       near_cut2[q++] = (r[i] + r[j]) * (r[i] + r[j]);
@@ -69,51 +73,12 @@ void NeighborList::refresh_near(const Context& c, bool transfer, bool reordered,
 
   // 2. Contact state, carried over by (owner id, partner id): rows are sorted by partner id.
   refresh_walls(c, wall_transfer, reordered);  // (sizes the store's arrays, pairs' and walls')
-  for (Array<double>* a : cs.pairs.carried()) zero(*a, c);
-  const std::size_t old_n = cs.stash_offset.size() == 0 ? 0 : cs.stash_offset.size() - 1;
-  if (transfer && old_n > 0) {
-    // Only touching entries have state (an entry's results and history are zeroed when it
-    // opens; a rough entry redraws its facet at first touch).
-    const auto state = cs.pairs.carried();
-    const auto width = EntryStore::widths(cs.pair_shape);
-    std::array<Array<double>*, ContactStore::kFields> now_state;
-    for (std::size_t k = 0; k < ContactStore::kFields; ++k)
-      now_state[k] = (state[k]->empty() || cs.stash_pairs[k].empty()) ? nullptr : state[k];
-    // (the stash holds touching entries only, rows sorted by partner id)
-    const Array<double>& old_overlap = cs.stash_pairs[1];
-    const Array<Index>& old_offset = cs.stash_offset;
-    const Array<Id>& old_partner = cs.stash_partner;
-    // Each row writes only its own entries, its own old row and its own dissipation.
-#pragma omp parallel for schedule(static) num_threads(c.threads) if (c.parallel)
-    for (long i = 0; i < ni; ++i) {
-      Index oi = static_cast<Index>(i);
-      if (reordered) {
-        if (ps.id[i] >= static_cast<Id>(old_index_of_.size())) continue;  // added since
-        oi = old_index_of_[ps.id[i]];
-      }
-      if (static_cast<std::size_t>(oi) >= old_n) continue;
-      Index p = old_offset[oi];
-      const Index p_end = old_offset[oi + 1];
-      for (Index q = near_offset[i]; q < near_offset[i + 1] && p < p_end; ++q) {
-        const Id b = ps.id[near_partner[q]];
-        while (p < p_end && old_partner[p] < b) ++p;
-        if (p == p_end || old_partner[p] != b || !touching(c.law, old_overlap[p])) continue;
-        for (std::size_t k = 0; k < ContactStore::kFields; ++k) {
-          if (!now_state[k]) continue;  // the old or new law has no such array
-          const std::size_t wd = width[k];
-          const double* from = cs.stash_pairs[k].data() + wd * p;
-          std::copy(from, from + wd, now_state[k]->data() + wd * q);
-        }
-        cs.stash_pairs[1][p] = 0;  // carried
-      }
-      for (p = old_offset[oi]; p < p_end; ++p)
-        if (touching(c.law, old_overlap[p])) {  // touching, and now beyond the near list: it opened
-          const Index j = c.particles.index(old_partner[p]);
-          ps.dissipated[i] += spring_energy(c, ps.material[i], ps.material[j], cs.stash_pairs[0], p);
-        }
-    }
+  if (transfer && cs.stash_offset.size() > 1) {
+    carry_pairs(c, reordered);
+  } else {
+    for (Array<double>* a : cs.pairs.carried()) zero(*a, c);
+    mark_touching(cs.pairs, c);
   }
-  mark_touching(cs.pairs, c);
 
   // 3. Reverse index: for each particle, the entries where it is the partner, by owner id.
   //    (A ghost partner's entries are its source's.)
@@ -177,6 +142,87 @@ void NeighborList::refresh_near(const Context& c, bool transfer, bool reordered,
   moved_near = 0;
   near_steps = 0;
   ++refreshes;
+}
+
+void NeighborList::carry_pairs(const Context& c, bool reordered) {
+  // Only touching entries have state (an entry's results and history are zeroed when it opens;
+  // a rough entry redraws its facet at first touch). Each new entry's stashed row is found
+  // (source; the zero row where none), then each array is gathered in one loop.
+  const long ni = static_cast<long>(c.particles.size());
+  ParticleStore& ps = c.particles.arrays();
+  ContactStore& cs = c.contacts;
+  const Array<Index>& old_offset = cs.stash_offset;
+  const Array<Id>& old_key = cs.stash_partner;
+  const std::size_t old_n = old_offset.size() - 1;
+  const Index none = old_offset[old_n];  // the stash's zero row
+  const long m = static_cast<long>(near_partner.size());
+  fit(carry_source_, static_cast<std::size_t>(m));
+  fit(carry_taken_, static_cast<std::size_t>(none));
+  Index* source = carry_source_.data();
+  std::uint8_t* taken = carry_taken_.data();
+  // A stashed contact not carried is touching and now beyond the near list: it opened.
+  auto opened = [&](long i, Index p, Index j) {
+    ps.dissipated[i] += spring_energy(c, ps.material[i], ps.material[j], cs.stash_pairs[0], p);
+  };
+  if (!reordered && cs.stash_by_verlet) {
+    // A refresh: each stashed entry goes to its Verlet pair's new entry, where it has one
+    // (no search, no branch on a coin toss).
+    const long stashed = static_cast<long>(none);
+    long left = 0;
+#pragma omp parallel num_threads(c.threads) if (c.parallel)
+    {
+#pragma omp for schedule(static)
+      for (long q = 0; q < m; ++q) source[q] = none;
+#pragma omp for schedule(static) reduction(+ : left)
+      for (long p = 0; p < stashed; ++p) {
+        const Index q = near_of_verlet_[old_key[p]];
+        taken[p] = q >= 0;
+        if (q >= 0) source[q] = static_cast<Index>(p);
+        left += q < 0;
+      }
+    }
+    for (long i = 0; i < ni && left > 0; ++i)  // (a sticky law's contact held beyond the reach)
+      for (Index p = old_offset[i]; p < old_offset[i + 1]; ++p)
+        if (!taken[p]) opened(i, p, pair_partner[old_key[p]]);
+  } else {
+    // After a rebuild: rows merged by partner id (both sorted by it). Each row writes only its
+    // own entries, its own old row and its own dissipation.
+#pragma omp parallel for schedule(static) num_threads(c.threads) if (c.parallel)
+    for (long i = 0; i < ni; ++i) {
+      std::fill(source + near_offset[i], source + near_offset[i + 1], none);
+      Index oi = static_cast<Index>(i);
+      if (reordered) {
+        if (ps.id[i] >= static_cast<Id>(old_index_of_.size())) continue;  // added since
+        oi = old_index_of_[ps.id[i]];
+      }
+      if (oi < 0 || static_cast<std::size_t>(oi) >= old_n) continue;
+      Index p = old_offset[oi];
+      const Index p_end = old_offset[oi + 1];
+      std::fill(taken + p, taken + p_end, std::uint8_t(0));
+      for (Index q = near_offset[i]; q < near_offset[i + 1] && p < p_end; ++q) {
+        const Id b = ps.id[near_partner[q]];
+        while (p < p_end && old_key[p] < b) ++p;
+        if (p == p_end || old_key[p] != b) continue;
+        source[q] = p;
+        taken[p++] = 1;
+      }
+      for (p = old_offset[oi]; p < p_end; ++p)
+        if (!taken[p]) opened(i, p, c.particles.index(old_key[p]));
+    }
+  }
+  const auto state = cs.pairs.carried();
+  const auto width = EntryStore::widths(cs.pair_shape);
+  const std::size_t rows = static_cast<std::size_t>(none) + 1;
+  for (std::size_t k = 0; k < ContactStore::kFields; ++k) {
+    if (state[k]->empty()) continue;
+    if (cs.stash_pairs[k].size() != rows * static_cast<std::size_t>(width[k]))  // (the old law's has another shape)
+      zero(*state[k], c);
+    else
+      gather_rows(state[k]->data(), cs.stash_pairs[k].data(), source, m, width[k], scan_threads(c));
+  }
+  std::uint8_t* touch = cs.pairs.touch.data();
+#pragma omp parallel for schedule(static) num_threads(c.threads) if (c.parallel)
+  for (long q = 0; q < m; ++q) touch[q] = source[q] != none;
 }
 
 // A wider near list is refreshed less often but scanned at every step. Per step, with f the

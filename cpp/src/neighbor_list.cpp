@@ -301,6 +301,7 @@ void NeighborList::remove(const Context& c, const Id* gone, std::size_t count) {
   const std::size_t near_kept = drop_rows(near_offset, row_to, pair_to_, &near_partner, &row_to);
   remap(near_owner, pair_to_, near_kept, row_to);
   remap(near_partner, pair_to_, near_kept, row_to);
+  remap(near_verlet_, pair_to_, near_kept, pair_to);  // (pair_to: the Verlet pairs' map)
   compact(near_cut2, pair_to_, near_kept);
   compact(near_entry, pair_to_, near_kept);
   for (Array<double>* a : c.contacts.pairs.carried()) compact(*a, pair_to_, near_kept);
@@ -333,8 +334,9 @@ void NeighborList::remove(const Context& c, const Id* gone, std::size_t count) {
 }
 
 void NeighborList::refresh(const Context& c) {
+  // (The Verlet list and the particles' order stand: the stash is keyed by Verlet pairs.)
   c.contacts.stash_pair_state(near_offset, near_partner, c.particles.arrays().id, c.law,
-                               c.parallel ? c.threads : 1);
+                               c.parallel ? c.threads : 1, &near_verlet_);
   stash_near_walls(c);
   refresh_near(c, true, false, true);
 }
@@ -384,7 +386,7 @@ std::size_t NeighborList::wall_bytes() const {
 std::size_t NeighborList::scratch_bytes() const {
   std::size_t parts = 0;
   for (const Array<Index>& a : verlet_parts_) parts += capacity_bytes(a);
-  return parts + capacity_bytes(near_kept_, cell_start_, cell_of_, cell_key_, perm_, old_index_of_,
+  return parts + capacity_bytes(near_kept_, near_verlet_, near_of_verlet_, carry_source_, carry_taken_, cell_start_, cell_of_, cell_key_, perm_, old_index_of_,
                                 active, scratch_, scratch_int_, reach_to_, reach_keep_, wall_rows_,
                                 sheet_mark_, wall_near_next_, sheet_rows_[0], sheet_rows_[1],
                                 sheet_rows_[2], clear_stash_, tangent_stash_);

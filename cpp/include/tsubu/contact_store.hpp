@@ -36,7 +36,7 @@ class ContactStore {
   void size(std::size_t pair_entries, std::size_t wall_entries, int threads = 1);
 
   // The stash: touching pair entries, compactly, rows by owner in `stash_offset` (the owner's
-  // old index), partners as ids; the near-wall list's entries whole, rows by sphere in
+  // old index), partners as ids, and a zero row after the last (stash_pair_state); the near-wall list's entries whole, rows by sphere in
   // `stash_wall_offset`, with their (wall, element) keys (NeighborList::stash_near_walls, or a
   // checkpoint's wall contacts).
   Array<Index> stash_offset;
@@ -45,13 +45,21 @@ class ContactStore {
   Array<Index> stash_wall_offset, stash_wall_index, stash_wall_element;
 
   // Moves the touching pair entries of rows `offset` (partners `partner`, internal indices)
-  // into the stash; `id` maps an internal index to its id; `law` says which entries touch
+  // into the stash, each keyed by its partner's id (`id` maps an internal index to its id) or,
+  // where `verlet` is given (each entry's Verlet pair, NeighborList::near_verlet), by that
+  // pair: a refresh, whose Verlet list and particle order stand. `law` says which entries touch
   // (touching(), registry.hpp); on `threads` threads where > 1.
   void stash_pair_state(const Array<Index>& offset, const Array<Index>& partner, const Array<Id>& id,
-                        const CompiledLaw& law, int threads = 1);
+                        const CompiledLaw& law, int threads = 1, const Array<Index>* verlet = nullptr);
+  bool stash_by_verlet = false;  // the stash's keys are Verlet pairs, not partner ids
 
   std::size_t bytes() const;
   std::size_t stash_bytes() const;
+
+ private:
+  // scratch of stash_pair_state: each stashed entry's index in the list; the touching entries
+  // before each entry
+  Array<Index> stash_source_, stash_before_;
 };
 
 // Resizes a per-entry array, growing its capacity by 1/8 rather than doubling: the lists change

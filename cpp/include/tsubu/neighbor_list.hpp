@@ -214,6 +214,9 @@ class NeighborList {
   // over by (owner id, partner id), with `wall_transfer` the stashed wall state by (sphere,
   // wall, element); `reordered`: the particles were re-sorted since the stash.
   void refresh_near(const Context& c, bool transfer, bool reordered, bool wall_transfer);
+  // refresh_near's part: every carried array of the new near list from the stash (rows by old
+  // index, partners by id), the touch flags, and the energy of stashed contacts left behind.
+  void carry_pairs(const Context& c, bool reordered);
   // The near list's next reach (near_fraction), from what the last one cost: see near_list.cpp.
   void choose_near_fraction();
   // The near-wall list from the reach list (refresh_near's part).
@@ -248,6 +251,13 @@ class NeighborList {
   Array<Index> scratch_int_;
   std::vector<Array<Index>> verlet_parts_;  // build_verlet: the partners of each thread's rows (but the first's)
   Array<std::uint8_t> near_kept_;  // refresh_near: 1 for each Verlet pair within the reach
+  // Each near entry's Verlet pair (kept through removals: a refresh's stash is keyed by it);
+  // refresh_near's scratch: each Verlet pair's near entry, or -1.
+  Array<Index> near_verlet_, near_of_verlet_;
+  // carry_pairs: each new entry's stashed row (the stash's zero row where none); 1 for each
+  // stashed entry carried.
+  Array<Index> carry_source_;
+  Array<std::uint8_t> carry_taken_;
   // gather_sheets: each position's mark, each sphere's positions, sheets and sheet entries
   // (running sums), and the positions kept.
   Array<Index> sheet_mark_, wall_near_next_;
