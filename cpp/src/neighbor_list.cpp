@@ -111,17 +111,23 @@ void NeighborList::build_verlet(const Context& c, const CellGrid& grid, double s
   // pays nothing for it.)
   auto build = [&](auto ghosts) {
     constexpr bool kGhosts = decltype(ghosts)::value;
-    auto for_each_neighbor = [&](Index i, auto&& visit) {
+    // Row i's partners into `row` (from its start; returns their count).
+    auto find_partners = [&](Index i, std::vector<Index>& row) {
       const Vec3 xi = vec3(x, i);
-      // (Both tests on every candidate, then one branch: the id test alone is a coin toss for
-      // the branch predictor, the pair's being listed rarely true.)
       const Id idi = id[i];
       const double ri = r[i];
+      Index found = 0;
+      // (Every candidate written, the count moved by both tests: no branch, where either test
+      // is a coin toss for the branch predictor.)
       auto visit_range = [&](Index j0, Index j1) {
+        const std::size_t room = std::size_t(found) + std::size_t(j1 - j0);
+        if (row.size() < room) row.resize(2 * room);
+        Index* out = row.data();
         for (Index j = j0; j < j1; ++j) {
           const double cut = ri + r[j] + skin_now;
           const bool near = c.domain.displacement(xi, vec3(x, j)).squaredNorm() < cut * cut;
-          if (near & (id[j] > idi)) visit(j);  // (a ghost has its source's id: each pair once)
+          out[found] = j;
+          found += (near & (id[j] > idi)) ? 1 : 0;  // (a ghost has its source's id: each pair once)
         }
       };
       // Cells [first, last], consecutive: their particles (and ghosts) are one range each.
@@ -132,7 +138,7 @@ void NeighborList::build_verlet(const Context& c, const CellGrid& grid, double s
       auto visit_cell = [&](long cell) { visit_cells(cell, cell); };
       if (grid.sparse) {
         for_each_cell_around(grid, cell_of(grid, &x[3 * i]), visit_cell);
-        return;
+        return found;
       }
       // The dense grid, indexed directly (the common case: kept tight); the cells around in
       // increasing index order, the slowest axis outermost. The fastest axis has stride 1
@@ -148,6 +154,7 @@ void NeighborList::build_verlet(const Context& c, const CellGrid& grid, double s
           const long run = s * stride[0] + m * stride[1];
           visit_cells(run + lo[2], run + hi[2]);
         }
+      return found;
     };
     // One pass over the candidates (a count first, then a fill, measured each pair twice): each
     // thread appends its rows' partners, the first thread's in place, the others' to their
@@ -172,9 +179,11 @@ void NeighborList::build_verlet(const Context& c, const CellGrid& grid, double s
         if (out.size() == out.capacity()) out.reserve(out.size() + out.size() / 8 + 1024);
         out.push_back(j);
       };
+      thread_local std::vector<Index> row(64);  // (a row's candidates: kept between rebuilds)
       for (long i = lo; i < hi; ++i) {
         const std::size_t start = out.size();
-        for_each_neighbor(static_cast<Index>(i), append);
+        const Index found = find_partners(static_cast<Index>(i), row);
+        for (Index k = 0; k < found; ++k) append(row[std::size_t(k)]);
         insertion_sort(out.data() + start, out.data() + out.size(), [&](Index j) { return id[j]; });
         pair_offset[i + 1] = static_cast<Index>(out.size() - start);
       }

@@ -14,6 +14,7 @@
 #pragma once
 #include <Eigen/Geometry>
 #include <array>
+#include <cmath>
 #include <cstdint>
 #include <vector>
 
@@ -99,8 +100,13 @@ class Mesh {
     const Vec3 X = to_body(x);
     std::vector<Index>& found = scratch();
     candidates(X, r + reach, found);
+    // (The distance to a triangle's plane is a lower bound on the distance to the triangle:
+    // most candidates are told by it, without the nearest point; the margin covers rounding.)
+    const double bound = (r + reach) * (1.0 + 1e-9);
     for (Index t : found)
-      if (nearest_body(X, t).distance < r + reach) visit(t);
+      if (std::abs(tri_[std::size_t(t)].n.dot(X - tri_[std::size_t(t)].a)) < bound &&
+          nearest_body(X, t).distance < r + reach)
+        visit(t);
   }
 
   // The body's pose: one step of rigid motion with the wall's velocity and angular velocity
