@@ -112,7 +112,7 @@ void NeighborList::build_verlet(const Context& c, const CellGrid& grid, double s
   auto build = [&](auto ghosts) {
     constexpr bool kGhosts = decltype(ghosts)::value;
     // Row i's partners into `row` (from its start; returns their count).
-    auto find_partners = [&](Index i, std::vector<Index>& row) {
+    auto find_partners = [&](Index i, Array<Index>& row) {
       const Vec3 xi = vec3(x, i);
       const Id idi = id[i];
       const double ri = r[i];
@@ -162,6 +162,7 @@ void NeighborList::build_verlet(const Context& c, const CellGrid& grid, double s
     const long nl = static_cast<long>(n);
     const int most = scan_threads(c);
     if (static_cast<int>(verlet_parts_.size()) < most) verlet_parts_.resize(most);
+    if (static_cast<int>(verlet_rows_.size()) < most) verlet_rows_.resize(most);
     pair_partner.clear();
     int team = 1;
     auto rows = [&](int t) { return std::array<long, 2>{nl * t / team, nl * (t + 1) / team}; };
@@ -179,7 +180,8 @@ void NeighborList::build_verlet(const Context& c, const CellGrid& grid, double s
         if (out.size() == out.capacity()) out.reserve(out.size() + out.size() / 8 + 1024);
         out.push_back(j);
       };
-      thread_local std::vector<Index> row(64);  // (a row's candidates: kept between rebuilds)
+      Array<Index>& row = verlet_rows_[t];
+      if (row.size() < 64) row.resize(64);
       for (long i = lo; i < hi; ++i) {
         const std::size_t start = out.size();
         const Index found = find_partners(static_cast<Index>(i), row);
@@ -395,6 +397,7 @@ std::size_t NeighborList::wall_bytes() const {
 std::size_t NeighborList::scratch_bytes() const {
   std::size_t parts = 0;
   for (const Array<Index>& a : verlet_parts_) parts += capacity_bytes(a);
+  for (const Array<Index>& a : verlet_rows_) parts += capacity_bytes(a);
   return parts + capacity_bytes(near_kept_, near_verlet_, near_of_verlet_, carry_source_, carry_taken_, cell_start_, cell_of_, cell_key_, perm_, old_index_of_,
                                 active, scratch_, scratch_int_, reach_to_, reach_keep_, wall_rows_,
                                 sheet_mark_, wall_near_next_, sheet_rows_[0], sheet_rows_[1],
