@@ -86,6 +86,13 @@ void NeighborList::refresh_near(const Context& c, bool transfer, bool reordered,
   near_rev_offset[0] = 0;
   fit_touched(near_rev, m, scan_threads(c));
   Array<Index>& fill = scratch_int_;
+  auto sort_rows = [&] {  // (rows filled in entry order, sorted by owner id)
+#pragma omp parallel for schedule(static) num_threads(c.threads) if (c.parallel)
+    for (long i = 0; i < ni; ++i)
+      if (near_rev_offset[i + 1] - near_rev_offset[i] > 1)
+        insertion_sort(near_rev.data() + near_rev_offset[i], near_rev.data() + near_rev_offset[i + 1],
+                       [&](Index q) { return ps.id[near_owner[q]]; });
+  };
   if (scan_threads(c) > 1 && c.domain.ghosts() == 0 && ni >= kScanRows) {
     // Each thread takes the rows of a range of partners [j0, j1), reading only the entries of
     // the owners that can reach them ([j0 - above, j1 + below)), in entry order: each row is
@@ -119,18 +126,22 @@ void NeighborList::refresh_near(const Context& c, bool transfer, bool reordered,
         if (j >= me.j0 && j < me.j1) near_rev[fill[j]++] = q;
       }
     }
+    sort_rows();
   } else {
+    // One thread: the owners, visited in id order, fill each row in the order it keeps (by
+    // owner id, then entry): no sort after.
     std::fill(near_rev_offset.begin() + 1, near_rev_offset.end(), 0);
     for (std::size_t q = 0; q < m; ++q) ++near_rev_offset[c.domain.source(near_partner[q], n) + 1];
     running_sums(near_rev_offset.data(), ni, scan_threads(c));
     fill.assign(near_rev_offset.begin(), near_rev_offset.end() - 1);
-    for (std::size_t q = 0; q < m; ++q) near_rev[fill[c.domain.source(near_partner[q], n)]++] = static_cast<Index>(q);
+    const Id ids = static_cast<Id>(c.particles.id_bound());
+    for (Id id = 0; id < ids; ++id) {
+      const Index i = c.particles.index(id);
+      if (i == Particles::kGone) continue;
+      for (Index q = near_offset[i]; q < near_offset[i + 1]; ++q)
+        near_rev[fill[c.domain.source(near_partner[q], n)]++] = q;
+    }
   }
-#pragma omp parallel for schedule(static) num_threads(c.threads) if (c.parallel)
-  for (long i = 0; i < ni; ++i)
-    if (near_rev_offset[i + 1] - near_rev_offset[i] > 1)
-      insertion_sort(near_rev.data() + near_rev_offset[i], near_rev.data() + near_rev_offset[i + 1],
-                     [&](Index q) { return ps.id[near_owner[q]]; });
   // 4. The positions the step reads: every near-wall entry (flat sheets fold some), and the
   //    particles with entries.
   wall_near_offset.assign(wall_offset.begin(), wall_offset.end());
@@ -215,8 +226,8 @@ void NeighborList::carry_pairs(const Context& c, bool reordered) {
   const std::size_t rows = static_cast<std::size_t>(none) + 1;
   for (std::size_t k = 0; k < ContactStore::kFields; ++k) {
     if (state[k]->empty()) continue;
-    if (cs.stash_pairs[k].size() != rows * static_cast<std::size_t>(width[k]))  // (the old law's has another shape)
-      zero(*state[k], c);
+    if (cs.stash_pairs[k].size() != rows * static_cast<std::size_t>(width[k]))
+      zero(*state[k], c);  // (the old law's array has another shape, or there was none)
     else
       gather_rows(state[k]->data(), cs.stash_pairs[k].data(), source, m, width[k], scan_threads(c));
   }
@@ -477,19 +488,43 @@ void NeighborList::build_sum_entries(const Context& c) {
   }
   running_sums(sum_offset.data(), nbl, scan_threads(c));
   fit(sum_entry, static_cast<std::size_t>(sum_offset[nb]));
+  // Each kind of entry in one flat loop, each entry to its particle's run at a base per
+  // particle and kind (walls, then owned pairs, then reverse pairs): no loop per particle,
+  // whose short, uneven lengths the branch predictor misses.
+  const long ni = static_cast<long>(c.particles.size());
+  fit(sum_base_, 3 * static_cast<std::size_t>(ni));
+  // base[3 k + kind]: particle k's first place for that kind, less the kind's first index.
+  Index* base = sum_base_.data();
 #pragma omp parallel for schedule(static) num_threads(c.threads) if (c.parallel)
   for (long b = 0; b < nbl; ++b) {
     const Index k = busy[b];
-    std::uint32_t* out = sum_entry.data() + sum_offset[b];
-    auto put = [&](Index e, std::uint32_t kind) { *out++ = (std::uint32_t(e) << 3) | kind; };
-    for (Index p = wall_near_offset[k]; p < wall_near_offset[k + 1]; ++p) {
+    const Index walls = wall_near_offset[k + 1] - wall_near_offset[k];
+    const Index owned = near_offset[k + 1] - near_offset[k];
+    base[3 * k + 2] = sum_offset[b] - wall_near_offset[k];
+    base[3 * k] = sum_offset[b] + walls - near_offset[k];
+    base[3 * k + 1] = sum_offset[b] + walls + owned - near_rev_offset[k];
+  }
+  std::uint32_t* out = sum_entry.data();
+  const long walls = static_cast<long>(wall_near.size()), m = static_cast<long>(near_partner.size());
+  const std::size_t n = c.particles.size();
+#pragma omp parallel num_threads(c.threads) if (c.parallel)
+  {
+#pragma omp for schedule(static) nowait
+    for (long p = 0; p < walls; ++p) {
+      const Index at = base[3 * wall_owner[wall_near[p]] + 2] + static_cast<Index>(p);
       if (!wall_sheet.empty() && wall_sheet[p] >= 0)  // (the holder moves: the step rewrites it)
-        sheet_slot[wall_sheet[p]] = static_cast<Index>(out - sum_entry.data());
-      put(wall_near[p], 2);
+        sheet_slot[wall_sheet[p]] = at;
+      out[at] = (std::uint32_t(wall_near[p]) << 3) | 2u;
     }
-    for (Index q = near_offset[k]; q < near_offset[k + 1]; ++q) put(q, 0);
-    for (Index p = near_rev_offset[k]; p < near_rev_offset[k + 1]; ++p) put(near_rev[p], 1);
-    sum_entry[sum_offset[b]] |= 4u;  // a busy particle has at least one entry
+#pragma omp for schedule(static) nowait
+    for (long q = 0; q < m; ++q) out[base[3 * near_owner[q]] + q] = std::uint32_t(q) << 3;
+#pragma omp for schedule(static)
+    for (long p = 0; p < m; ++p) {
+      const Index q = near_rev[p];
+      out[base[3 * c.domain.source(near_partner[q], n) + 1] + p] = (std::uint32_t(q) << 3) | 1u;
+    }
+#pragma omp for schedule(static)
+    for (long b = 0; b < nbl; ++b) out[sum_offset[b]] |= 4u;  // a busy particle has at least one entry
   }
 }
 

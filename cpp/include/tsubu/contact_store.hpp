@@ -36,7 +36,8 @@ class ContactStore {
   void size(std::size_t pair_entries, std::size_t wall_entries, int threads = 1);
 
   // The stash: touching pair entries, compactly, rows by owner in `stash_offset` (the owner's
-  // old index), partners as ids, and a zero row after the last (stash_pair_state); the near-wall list's entries whole, rows by sphere in
+  // old index), partners as ids (or Verlet pairs: stash_by_verlet), a zero row after the last
+  // (stash_pair_state); the near-wall list's entries whole, rows by sphere in
   // `stash_wall_offset`, with their (wall, element) keys (NeighborList::stash_near_walls, or a
   // checkpoint's wall contacts).
   Array<Index> stash_offset;
