@@ -34,8 +34,7 @@ void ContactStore::stash_pair_state(const Array<Index>& offset, const Array<Inde
   const long rows = offset.empty() ? 0 : static_cast<long>(offset.size()) - 1;
   const long m = rows > 0 ? static_cast<long>(offset[rows]) : 0;
   const double* overlap = pairs.overlap.data();
-  const bool sticky = law.sticky;
-  auto touches = [=](long q) -> Index { return (overlap[q] > 0) | (sticky & (overlap[q] != 0)); };
+  auto touches = [&](long q) -> Index { return touching(law, overlap[q]); };
   fit(stash_before_, static_cast<std::size_t>(m) + 1);
   fit(stash_source_, static_cast<std::size_t>(m) + 1);  // (+ 1: where a part's last slot goes)
   Index* before = stash_before_.data();
@@ -101,8 +100,8 @@ std::size_t capacity_bytes(const A&... v) {
 std::size_t ContactStore::bytes() const { return pairs.bytes() + walls.bytes(); }
 
 std::size_t ContactStore::stash_bytes() const {
-  std::size_t b = capacity_bytes(stash_offset, stash_partner, stash_source_, stash_before_, stash_wall_offset,
-                                 stash_wall_index, stash_wall_element);
+  std::size_t b = capacity_bytes(stash_offset, stash_partner, stash_source_, stash_before_,
+                                 stash_wall_offset, stash_wall_index, stash_wall_element);
   for (std::size_t k = 0; k < kFields; ++k) b += capacity_bytes(stash_pairs[k], stash_walls[k]);
   return b;
 }

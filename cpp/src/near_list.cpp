@@ -71,7 +71,7 @@ void NeighborList::refresh_near(const Context& c, bool transfer, bool reordered,
   reach_below = below;
   reach_above = above;
 
-  // 2. Contact state, carried over by (owner id, partner id): rows are sorted by partner id.
+  // 2. Contact state, carried over from the stash (carry_pairs).
   refresh_walls(c, wall_transfer, reordered);  // (sizes the store's arrays, pairs' and walls')
   if (transfer && cs.stash_offset.size() > 1) {
     carry_pairs(c, reordered);
@@ -86,13 +86,6 @@ void NeighborList::refresh_near(const Context& c, bool transfer, bool reordered,
   near_rev_offset[0] = 0;
   fit_touched(near_rev, m, scan_threads(c));
   Array<Index>& fill = scratch_int_;
-  auto sort_rows = [&] {  // (rows filled in entry order, sorted by owner id)
-#pragma omp parallel for schedule(static) num_threads(c.threads) if (c.parallel)
-    for (long i = 0; i < ni; ++i)
-      if (near_rev_offset[i + 1] - near_rev_offset[i] > 1)
-        insertion_sort(near_rev.data() + near_rev_offset[i], near_rev.data() + near_rev_offset[i + 1],
-                       [&](Index q) { return ps.id[near_owner[q]]; });
-  };
   if (scan_threads(c) > 1 && c.domain.ghosts() == 0 && ni >= kScanRows) {
     // Each thread takes the rows of a range of partners [j0, j1), reading only the entries of
     // the owners that can reach them ([j0 - above, j1 + below)), in entry order: each row is
@@ -126,7 +119,12 @@ void NeighborList::refresh_near(const Context& c, bool transfer, bool reordered,
         if (j >= me.j0 && j < me.j1) near_rev[fill[j]++] = q;
       }
     }
-    sort_rows();
+    // (Rows filled in entry order, then sorted by owner id.)
+#pragma omp parallel for schedule(static) num_threads(c.threads)
+    for (long i = 0; i < ni; ++i)
+      if (near_rev_offset[i + 1] - near_rev_offset[i] > 1)
+        insertion_sort(near_rev.data() + near_rev_offset[i], near_rev.data() + near_rev_offset[i + 1],
+                       [&](Index q) { return ps.id[near_owner[q]]; });
   } else {
     // One thread: the owners, visited in id order, fill each row in the order it keeps (by
     // owner id, then entry): no sort after.

@@ -211,11 +211,12 @@ class NeighborList {
   void build_verlet(const Context& c, const CellGrid& grid, double skin);
   void build_walls(const Context& c, double skin);
   // Builds the near list from the Verlet list; with `transfer`, carries the stashed pair state
-  // over by (owner id, partner id), with `wall_transfer` the stashed wall state by (sphere,
-  // wall, element); `reordered`: the particles were re-sorted since the stash.
+  // over (carry_pairs), with `wall_transfer` the stashed wall state by (sphere, wall, element);
+  // `reordered`: the particles were re-sorted since the stash.
   void refresh_near(const Context& c, bool transfer, bool reordered, bool wall_transfer);
   // refresh_near's part: every carried array of the new near list from the stash (rows by old
-  // index, partners by id), the touch flags, and the energy of stashed contacts left behind.
+  // index; keys by Verlet pair after a refresh, by partner id after a rebuild), the touch
+  // flags, and the energy of stashed contacts left behind.
   void carry_pairs(const Context& c, bool reordered);
   // The near list's next reach (near_fraction), from what the last one cost: see near_list.cpp.
   void choose_near_fraction();
