@@ -9,7 +9,8 @@ terms and the step count). The scenes cover every compiled feature: the referenc
 N = 1e5 (blocked law, fused pass), the two dense beds (fixed and sliding floor), a rough scene
 with rolling friction, a frictionless drop, a scene of two materials (per-pair parameter lanes),
 the notes' literal history rule, a scene with a tilting, rising wall, a Lees–Edwards box, a
-periodic chute on fixed grains and a drop onto a floor of small triangles.
+periodic chute on fixed grains, a drop onto a floor of small triangles and a fast, spinning gas
+(contacts whose normal turns far in one step).
 
 Run it on the code before and after a change and compare the printed hashes (or the --json
 files): equal hashes mean equal bits. The two thread counts must also agree with each other.
@@ -150,6 +151,30 @@ def _mesh_floor(threads):
     return sim
 
 
+def _fast_gas(threads):
+    """About 1,400 spheres flying at ~2 m/s and spinning at ~2,000 rad/s in a closed box without
+    gravity, the default (frozen) slip rule: contacts whose normal turns by more than ~1/300 rad
+    in one step, the rare lanes that the block evaluates twice (engine/block.hpp, Blocked::evaluate)."""
+    import tsubu
+    rng = np.random.default_rng(3)
+    side = 0.05
+    x = rng.uniform(1.5e-3, side - 1.5e-3, size=(2000, 3))
+    keep = [0]
+    for k in range(1, len(x)):
+        if np.min(np.linalg.norm(x[keep] - x[k], axis=1)) > 2.2e-3:
+            keep.append(k)
+    x = x[keep]
+    sim = tsubu.Simulation(gravity=(0.0, 0.0, 0.0), threads=threads)
+    mat = tsubu.Material(density=2500.0, kn=1e4, restitution=0.5, friction=0.5)
+    sim.add_spheres(x, 1e-3, mat, velocities=rng.normal(0.0, 2.0, size=x.shape),
+                    angular_velocities=rng.normal(0.0, 2000.0, size=x.shape))
+    for k in range(3):
+        normal = np.eye(3)[k]
+        sim.add_plane(np.zeros(3), normal, mat)
+        sim.add_plane(side * normal, -normal, mat)
+    return sim
+
+
 # name: (builder(threads) -> Simulation, steps)
 SCENES = {
     "drop-1e5": (_drop(100_000), 2000),
@@ -163,6 +188,7 @@ SCENES = {
     "lees-edwards": (_lees_edwards, 20_000),
     "periodic-chute": (_periodic_chute, 20_000),
     "mesh-floor": (_mesh_floor, 20_000),
+    "fast-gas": (_fast_gas, 4000),
 }
 
 

@@ -84,6 +84,17 @@ struct ContactLaw {
   TSUBU_INLINE static double lane(L3 n, L3 vt, double delta, double vn, const double* e,
                                   const double* q, double dt, L3& xi, double& aux, L3& force,
                                   L3& n_cross_ft, double& power) {
+    bool far = false;
+    return lane_as<false>(n, vt, delta, vn, e, q, dt, xi, aux, force, n_cross_ft, power, far);
+  }
+  // Whether lane_as<true> can skip a rare costly step of the tangential law (and say where).
+  static constexpr bool kDeferred = Tangential::kDeferred;
+  // lane(); kDeferred laws with kSeriesOnly: `far` set where the tangential law skipped a step
+  // (Tangential::lane_as), whose lane must be evaluated again by lane().
+  template <bool kSeriesOnly>
+  TSUBU_INLINE static double lane_as(L3 n, L3 vt, double delta, double vn, const double* e,
+                                     const double* q, double dt, L3& xi, double& aux, L3& force,
+                                     L3& n_cross_ft, double& power, bool& far) {
     const NormalState s = Normal::state(q, e, delta);
     const double eta_n = Damping::lane(e + Normal::kEntryTerms, s);
     double fn;
@@ -97,8 +108,14 @@ struct ContactLaw {
       Tangential::follow(t, s, dt, xi, aux, power);
       // last step's F_t, turned into this tangent plane, on this step's v_t: (n' x F) x n . v_t
       const double prev_work = dot(n_cross_ft, cross(n, vt));
-      const L3 ft = Tangential::lane(n, vt, Tangential::stiffness(t, s), Tangential::damping(t, eta_n),
-                                     Tangential::cap(t, fn), dt, prev_work, xi, power);
+      L3 ft;
+      if constexpr (kSeriesOnly && kDeferred)
+        ft = Tangential::template lane_as<true>(n, vt, Tangential::stiffness(t, s), Tangential::compliance(t, s),
+                                                Tangential::damping(t, eta_n), Tangential::cap(t, fn), dt,
+                                                prev_work, xi, power, far);
+      else
+        ft = Tangential::lane(n, vt, Tangential::stiffness(t, s), Tangential::compliance(t, s),
+                              Tangential::damping(t, eta_n), Tangential::cap(t, fn), dt, prev_work, xi, power);
       force = force + ft;
       n_cross_ft = cross(n, ft);
     } else {
@@ -107,6 +124,7 @@ struct ContactLaw {
       (void)aux;
       (void)n_cross_ft;
     }
+    (void)far;
     return fn;
   }
 

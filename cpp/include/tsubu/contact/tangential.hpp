@@ -37,6 +37,7 @@ struct FrictionParams {
 // Frictionless contacts: no tangential force, no history, no angular-velocity reads.
 struct NoTangential {
   static constexpr bool enabled = false;
+  static constexpr bool kDeferred = false;
   static constexpr const char* name = "frictionless";
   static constexpr int history_width = 0;
   static constexpr int kLaneParams = 0;
@@ -46,17 +47,21 @@ struct NoTangential {
   static double history_stiffness(const double*, const double*) { return 0; }
 };
 
-// What every law with a tangential spring shares: three lane parameters (kt, mu, eta_t/eta_n)
-// and a 3-vector of history, the displacement xi, holding 1/2 kt |xi|^2.
+// What every law with a tangential spring shares: four lane parameters (kt, mu, eta_t/eta_n,
+// 1/kt) and a 3-vector of history, the displacement xi, holding 1/2 kt |xi|^2.
 struct TangentialSpring {
   static constexpr bool enabled = true;
+  // Whether lane_as<true> exists: a lane that skips a rare costly step and says where it did
+  // (TangentialRotateRule).
+  static constexpr bool kDeferred = false;
   static constexpr int history_width = 3;
-  static constexpr int kLaneParams = 3;
+  static constexpr int kLaneParams = 4;
   struct History { double xi[3]; };
   static void pack(const FrictionParams& p, double* q) {
     q[0] = p.kt;
     q[1] = p.friction;
     q[2] = p.tangential_damping;
+    q[3] = 1.0 / p.kt;  // (the slip rule's; a division per lane otherwise, the lane's slowest step)
   }
   static bool used(const FrictionParams& p) { return FrictionParams::used(p); }
   // The energy of the spring with displacement xi; q as packed.
@@ -65,6 +70,8 @@ struct TangentialSpring {
   }
   // k_t at the contact's normal state: a linear spring's is fixed.
   TSUBU_INLINE static double stiffness(const double* q, const NormalState&) { return q[0]; }
+  // 1 / k_t, the same bits as dividing in the lane.
+  TSUBU_INLINE static double compliance(const double* q, const NormalState&) { return q[3]; }
   // k_t of a stored history (the energy audit's power): fixed.
   static double history_stiffness(const double* q, const double* /*xi*/) { return q[0]; }
   // eta_t = (eta_t / eta_n) eta_n (1.11) and the Coulomb cap mu |f_n| (1.17), from the lane's
@@ -89,9 +96,10 @@ namespace detail {
 // rule); F_t . v_t
 // alone would book mu |f_n| |v_t| whenever a slipping contact jitters, though a force that
 // follows -v_t flips with v_t and does no net work (docs/physics.md, "Energy balance").
+// `compliance`: 1/kt (read only by the truncating rule).
 template <bool kTruncate = false>
-TSUBU_INLINE L3 coulomb(L3 vt, double kt, double eta_t, double cap, double dt, L3 trial, L3 frozen,
-                        double prev_work, L3& xi, double& power) {
+TSUBU_INLINE L3 coulomb(L3 vt, double kt, double compliance, double eta_t, double cap, double dt,
+                        L3 trial, L3 frozen, double prev_work, L3& xi, double& power) {
   const L3 ft = mul_add(-kt, trial, -(eta_t * vt));  // (1.11)
   const double ft2 = dot(ft, ft);
   const bool slip = ft2 > cap * cap;
@@ -102,9 +110,9 @@ TSUBU_INLINE L3 coulomb(L3 vt, double kt, double eta_t, double cap, double dt, L
   if constexpr (kTruncate) {
     // The rule of LAMMPS's gran/hooke/history and of the shared reference scene: the trial force is scaled down to
     // the cap in its own direction, and the displacement truncated to match.
-    // (Divisions are the lane's slowest operations: one reciprocal each for kt and dt.)
+    // (Divisions are the lane's slowest operations: 1/kt comes packed, 1/dt is the loop's.)
     const L3 fs = (cap / std::sqrt(ft2)) * ft;
-    const L3 cut = -(1.0 / kt) * (fs + eta_t * vt);
+    const L3 cut = -compliance * (fs + eta_t * vt);
     // dissipated = work against the slip + the spring energy cut off
     const double slip_power =
         -0.5 * (dot(fs, vt) + prev_work) + (0.5 * kt * (dot(frozen, frozen) - dot(cut, cut))) * (1.0 / dt);
@@ -128,7 +136,7 @@ TSUBU_INLINE Vec3 tangential(const ContactGeometry& g, const FrictionParams& p, 
                              double fn_abs, double dt, typename Law::History& h, double& power) {
   L3 xi{h.xi[0], h.xi[1], h.xi[2]};
   const double prev_work = dot(lanes(g.prev_n_cross_ft), cross(lanes(g.n), lanes(g.vt)));
-  const L3 ft = Law::lane(lanes(g.n), lanes(g.vt), p.kt, eta_t, p.friction * fn_abs, dt, prev_work,
+  const L3 ft = Law::lane(lanes(g.n), lanes(g.vt), p.kt, 1.0 / p.kt, eta_t, p.friction * fn_abs, dt, prev_work,
                           xi, power);
   h.xi[0] = xi.x;
   h.xi[1] = xi.y;
@@ -144,10 +152,21 @@ template <bool kTruncate>
 struct TangentialRotateRule : TangentialSpring {
   static constexpr const char* name = kTruncate ? "friction(rotate, truncate)" : "friction(rotate)";
 
+  static constexpr bool kDeferred = true;
+
   // One contact: normal n, tangential velocity vt, cap mu |f_n|, last step's F_t . v_t
   // `prev_work`; returns F_t, updates xi.
-  TSUBU_INLINE static L3 lane(L3 n, L3 vt, double kt, double eta_t, double cap, double dt,
-                              double prev_work, L3& xi, double& power) {
+  TSUBU_INLINE static L3 lane(L3 n, L3 vt, double kt, double compliance, double eta_t, double cap,
+                              double dt, double prev_work, L3& xi, double& power) {
+    bool far = false;
+    return lane_as<false>(n, vt, kt, compliance, eta_t, cap, dt, prev_work, xi, power, far);
+  }
+  // kSeriesOnly: the rescale by the series alone, and `far` set where the turn is too large for
+  // it: that lane's results are not lane()'s, and the caller evaluates it again with lane().
+  // The square root and division of the exact rescale then leave the block's usual path.
+  template <bool kSeriesOnly>
+  TSUBU_INLINE static L3 lane_as(L3 n, L3 vt, double kt, double compliance, double eta_t, double cap,
+                                 double dt, double prev_work, L3& xi, double& power, bool& far) {
     const L3 old = xi;
     const double along = dot(old, n);
     const L3 flat = old - along * n;
@@ -156,11 +175,17 @@ struct TangentialRotateRule : TangentialSpring {
     // rounding for eps < 1e-5) is the usual case; the square root covers large turns.
     const double len2 = dot(old, old), rot2 = dot(flat, flat);
     const double eps = along * along / len2;
-    const double series = 1.0 + eps * (0.5 + 0.375 * eps), exact = std::sqrt(len2 / rot2);
-    const double scale = eps < 1e-5 ? series : (rot2 > 0 ? exact : 1.0);
+    const double series = 1.0 + eps * (0.5 + 0.375 * eps);
+    double scale = series;
+    if constexpr (kSeriesOnly) {
+      far = (along != 0) & !(eps < 1e-5);  // (no && : a branch would stop the vectoriser)
+    } else {
+      const double exact = std::sqrt(len2 / rot2);
+      scale = eps < 1e-5 ? series : (rot2 > 0 ? exact : 1.0);
+    }
     const L3 rot = select(along != 0, scale * flat, flat);
     const L3 trial = mul_add(dt, vt, rot);  // (1.13) one step
-    return detail::coulomb<kTruncate>(vt, kt, eta_t, cap, dt, trial, rot, prev_work, xi, power);
+    return detail::coulomb<kTruncate>(vt, kt, compliance, eta_t, cap, dt, trial, rot, prev_work, xi, power);
   }
   TSUBU_INLINE static Vec3 evaluate(const ContactGeometry& g, const FrictionParams& p, double eta_t,
                                     double fn_abs, double dt, History& h, double& power) {
@@ -176,13 +201,13 @@ using TangentialRotateTruncate = TangentialRotateRule<true>;
 struct TangentialLiteral : TangentialSpring {
   static constexpr const char* name = "friction(literal)";
 
-  TSUBU_INLINE static L3 lane(L3, L3 vt, double kt, double eta_t, double cap, double dt,
-                              double prev_work, L3& xi, double& power) {
+  TSUBU_INLINE static L3 lane(L3, L3 vt, double kt, double compliance, double eta_t, double cap,
+                              double dt, double prev_work, L3& xi, double& power) {
     const L3 old = xi;
     const double vt_abs = std::sqrt(dot(vt, vt));
     const L3 trial =
         select(vt_abs > 0, ((std::sqrt(dot(old, old)) + vt_abs * dt) / vt_abs) * vt, old);  // (1.14), (1.16)
-    return detail::coulomb(vt, kt, eta_t, cap, dt, trial, old, prev_work, xi, power);
+    return detail::coulomb(vt, kt, compliance, eta_t, cap, dt, trial, old, prev_work, xi, power);
   }
   TSUBU_INLINE static Vec3 evaluate(const ContactGeometry& g, const FrictionParams& p, double eta_t,
                                     double fn_abs, double dt, History& h, double& power) {
@@ -206,12 +231,13 @@ struct MindlinRule : TangentialRotateRule<kTruncate> {
   static constexpr const char* name = kTruncate ? "mindlin(rotate, truncate)" : "mindlin(rotate)";
   static constexpr int history_width = 4;
   struct History { double xi[4]; };
-  // Lanes read 8 G*, mu, eta_t / eta_n.
+  // Lanes read 8 G*, mu, eta_t / eta_n (and no 1/k_t: it changes with the contact).
   template <class P>
   static void pack(const P& p, double* q) {
     q[0] = 8.0 * p.effective_shear_modulus;
     q[1] = p.friction;
     q[2] = p.tangential_damping;
+    q[3] = 0;  // (k_t follows the contact: compliance() divides in the lane)
   }
   template <class P>
   static bool used(const P& p) { return p.friction > 0 && p.effective_shear_modulus > 0; }
@@ -220,6 +246,7 @@ struct MindlinRule : TangentialRotateRule<kTruncate> {
     return 0.5 * q[0] * xi[3] * (xi[0] * xi[0] + xi[1] * xi[1] + xi[2] * xi[2]);
   }
   TSUBU_INLINE static double stiffness(const double* q, const NormalState& s) { return q[0] * s.size; }
+  TSUBU_INLINE static double compliance(const double* q, const NormalState& s) { return 1.0 / stiffness(q, s); }
   // 8 G* a with the a the history keeps.
   static double history_stiffness(const double* q, const double* xi) { return q[0] * xi[3]; }
   TSUBU_INLINE static void follow(const double* q, const NormalState& s, double dt, L3& xi,

@@ -43,6 +43,7 @@ struct Blocked {
     double xia[kHistory > 3 ? kBlock : 1];  // a history's fourth value, where it has one
     double fx[kBlock], fy[kBlock], fz[kBlock], tx[kBlock], ty[kBlock], tz[kBlock], power[kBlock];
     bool inside[kBlock];
+    std::int32_t far[Law::kDeferred ? kBlock : 1];  // lanes the law must evaluate again (evaluate)
 
     // One material for all spheres: the parameter lanes are filled once, not per contact.
     explicit Block(const PairParams* same) {
@@ -122,6 +123,45 @@ struct Blocked {
     excess = most;
   }
 
+  // Lane a of the block through the law, its results in place of its inputs; returns F.
+  // kSeriesOnly (laws with Law::kDeferred): `far` set where the law skipped a rare step, that
+  // lane's inputs kept and its results to be thrown away (evaluate runs it again, in full).
+  template <bool kPairs, bool kSeriesOnly>
+  TSUBU_INLINE static L3 lane_at(Block& __restrict b, const Scan& __restrict s, int a, double dt,
+                                 bool& far) {
+    L3 n, vt;
+    double vn;
+    if constexpr (kPairs) {
+      n = s.inv[a] * L3{s.dx[a], s.dy[a], s.dz[a]};
+      const L3 spin = F::kTangential ? L3{b.spx[a], b.spy[a], b.spz[a]} : L3{0, 0, 0};
+      vt = C::contact_velocity(n, {b.vrx[a], b.vry[a], b.vrz[a]}, spin, vn);
+    } else {
+      n = {b.nx[a], b.ny[a], b.nz[a]};
+      vt = {b.vtx[a], b.vty[a], b.vtz[a]};
+      vn = b.vn[a];
+    }
+    double q[kParams], e[kEntry];
+    for (int k = 0; k < kParams; ++k) q[k] = b.param[k][a];
+    for (int k = 0; k < kEntry; ++k) e[k] = b.entry[k][a];
+    // (t: last step's n x F_t in, this step's out; the tangential law's energy booking reads it)
+    const L3 xi0{b.xix[a], b.xiy[a], b.xiz[a]}, t0{b.tx[a], b.ty[a], b.tz[a]};
+    const double aux0 = kHistory > 3 ? b.xia[kHistory > 3 ? a : 0] : 0.0;
+    L3 xi = xi0, f, t = t0;
+    double aux = aux0, power;
+    Law::template lane_as<kSeriesOnly>(n, vt, b.delta[a], vn, e, q, dt, xi, aux, f, t, power, far);
+    if constexpr (kSeriesOnly) {
+      xi = select(far, xi0, xi);
+      t = select(far, t0, t);
+      aux = far ? aux0 : aux;
+    }
+    b.xix[a] = xi.x, b.xiy[a] = xi.y, b.xiz[a] = xi.z;
+    if constexpr (kHistory > 3) b.xia[a] = aux;
+    b.fx[a] = f.x, b.fy[a] = f.y, b.fz[a] = f.z;
+    b.tx[a] = t.x, b.ty[a] = t.y, b.tz[a] = t.z;
+    b.power[a] = power;
+    return f;
+  }
+
   // The law over lanes [0, len) of a block of pairs (kPairs: the normal from the scan's x_ij and
   // 1/|x_ij|, the velocities from the block's) or of walls (s unused). Returns true if a
   // contact's force is not finite.
@@ -133,37 +173,31 @@ struct Blocked {
     // long serial chain: the block is run to the next multiple of 8 instead. The extra lanes
     // hold an earlier block's values (or zeros): their results are not read, not counted bad.
     static_assert(kBlock % 8 == 0);
+    constexpr bool kDeferred = Law::kDeferred;
     const int padded = (len + 7) & ~7;
-    int bad = 0;
+    int bad = 0, again = 0;
     std::uint64_t top = order_bits(fmax);  // the largest |fx| + |fy| + |fz| (>= |F|)
-    for (int a = 0; a < padded; ++a) {
-      L3 n, vt;
-      double vn;
-      if constexpr (kPairs) {
-        n = s.inv[a] * L3{s.dx[a], s.dy[a], s.dz[a]};
-        const L3 spin = F::kTangential ? L3{b.spx[a], b.spy[a], b.spz[a]} : L3{0, 0, 0};
-        vt = C::contact_velocity(n, {b.vrx[a], b.vry[a], b.vrz[a]}, spin, vn);
-      } else {
-        n = {b.nx[a], b.ny[a], b.nz[a]};
-        vt = {b.vtx[a], b.vty[a], b.vtz[a]};
-        vn = b.vn[a];
-      }
-      double q[kParams], e[kEntry];
-      for (int k = 0; k < kParams; ++k) q[k] = b.param[k][a];
-      for (int k = 0; k < kEntry; ++k) e[k] = b.entry[k][a];
-      // (t: last step's n x F_t in, this step's out; the tangential law's energy booking reads it)
-      L3 xi{b.xix[a], b.xiy[a], b.xiz[a]}, f, t{b.tx[a], b.ty[a], b.tz[a]};
-      double aux = kHistory > 3 ? b.xia[kHistory > 3 ? a : 0] : 0.0, power;
-      Law::lane(n, vt, b.delta[a], vn, e, q, dt, xi, aux, f, t, power);
-      b.xix[a] = xi.x, b.xiy[a] = xi.y, b.xiz[a] = xi.z;
-      if constexpr (kHistory > 3) b.xia[a] = aux;
-      b.fx[a] = f.x, b.fy[a] = f.y, b.fz[a] = f.z;
-      b.tx[a] = t.x, b.ty[a] = t.y, b.tz[a] = t.z;
-      b.power[a] = power;
+    auto note = [&](const L3& f, int a, bool skip) {
       const double sum = (f.x + f.y) + f.z;
-      bad |= (is_finite(sum) || a >= len) ? 0 : 1;  // (a just-opened lane's stay finite)
+      bad |= (is_finite(sum) || a >= len || skip) ? 0 : 1;  // (a just-opened lane's stay finite)
       const std::uint64_t size = order_bits((std::abs(f.x) + std::abs(f.y)) + std::abs(f.z));
       top = top > size ? top : size;  // (the padding lanes' earlier forces too: a bound)
+    };
+    for (int a = 0; a < padded; ++a) {
+      bool far = false;
+      const L3 f = lane_at<kPairs, kDeferred>(b, s, a, dt, far);
+      if constexpr (kDeferred) b.far[a] = far ? 1 : 0;
+      note(f, a, far);  // (a far lane's force, redone below, only raises the bound)
+    }
+    if constexpr (kDeferred) {
+      // (Counted in a loop of its own: in the loop above, gcc would not vectorise.)
+      for (int a = 0; a < len; ++a) again |= b.far[a];
+      if (again)  // rare: a contact whose normal turned by more than ~1/300 rad in one step
+        for (int a = 0; a < len; ++a)
+          if (b.far[a]) {
+            bool unused = false;
+            note(lane_at<kPairs, false>(b, s, a, dt, unused), a, false);
+          }
     }
     fmax = from_order_bits(top);
     return bad != 0;
