@@ -2,6 +2,7 @@
 // written by one thread, so the lists are the same for any thread count.
 #pragma once
 #include <algorithm>
+#include <cstring>
 #include <vector>
 #ifdef _OPENMP
 #include <omp.h>
@@ -21,6 +22,14 @@ inline Part part() {
 #else
   return {0, 1};
 #endif
+}
+
+// True if every element of `a` has the bits of the first (an empty array: true).
+template <class T>
+inline bool all_equal(const Array<T>& a) {
+  for (std::size_t k = 1; k < a.size(); ++k)
+    if (std::memcmp(&a[k], &a[0], sizeof(T)) != 0) return false;
+  return true;
 }
 
 // The k in [0, n) that pass `keep`, in order, into `out`: counted in parts, then written.

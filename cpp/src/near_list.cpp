@@ -48,7 +48,10 @@ void NeighborList::refresh_near(const Context& c, bool transfer, bool reordered,
   const std::size_t m = static_cast<std::size_t>(near_offset[n]);
   fit_touched(near_owner, m, scan_threads(c));
   fit_touched(near_partner, m, scan_threads(c));
-  fit_touched(near_cut2, m, scan_threads(c));
+  const bool one_radius = !ps.radius.empty() && all_equal(ps.radius);
+  cut_mask = one_radius ? 0 : ~Index(0);
+  fit_touched(near_cut2, one_radius ? 1 : m, scan_threads(c));
+  if (one_radius) near_cut2[0] = (r[0] + r[0]) * (r[0] + r[0]);
   fit_touched(near_verlet_, m, scan_threads(c));
   fit(near_of_verlet_, kept.size());
   // (How far a partner lies down or up the array from its owner: the reverse index's reach.)
@@ -63,7 +66,8 @@ void NeighborList::refresh_near(const Context& c, bool transfer, bool reordered,
       near_verlet_[q] = e;
       near_owner[q] = static_cast<Index>(i);
       near_partner[q] = j;
-      near_cut2[q++] = (r[i] + r[j]) * (r[i] + r[j]);
+      if (!one_radius) near_cut2[q] = (r[i] + r[j]) * (r[i] + r[j]);
+      ++q;
       below = std::max(below, static_cast<Index>(i) - j);
       above = std::max(above, j - static_cast<Index>(i));
     }
@@ -553,14 +557,18 @@ void NeighborList::measure(const Context& c) {
 
 void NeighborList::cache_terms(const Context& c) {
   const std::size_t width = c.law.entry_width;
-  fit(near_entry, width * near_partner.size());
   const ParticleStore& ps = c.particles.arrays();
   const double *mass = ps.mass.data(), *radius = ps.radius.data(), *inv_mass = ps.inv_mass.data();
   const int* material = ps.material.data();
-  const long m = static_cast<long>(near_partner.size());
+  // (Every pair of such spheres has the terms of sphere 0 with itself, bit for bit.)
+  const bool one = !ps.radius.empty() && all_equal(ps.radius) && all_equal(ps.mass) &&
+                   all_equal(ps.inv_mass) && all_equal(ps.material);
+  entry_mask = one ? 0 : ~Index(0);
+  fit(near_entry, width * (one ? 1 : near_partner.size()));
+  const long m = one ? 1 : static_cast<long>(near_partner.size());
 #pragma omp parallel for schedule(static) num_threads(c.threads) if (c.parallel)
   for (long q = 0; q < m; ++q) {
-    const Index i = near_owner[q], j = near_partner[q];
+    const Index i = one ? 0 : near_owner[q], j = one ? 0 : near_partner[q];
     // A fixed sphere (inverse mass 0, boundary.hpp) is a wall to the other: its mass.
     const double m_pair = mass[i] * mass[j] / (mass[i] + mass[j]);
     const double m_eff = inv_mass[j] == 0 ? mass[i] : (inv_mass[i] == 0 ? mass[j] : m_pair);

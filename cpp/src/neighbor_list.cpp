@@ -313,8 +313,8 @@ void NeighborList::remove(const Context& c, const Id* gone, std::size_t count) {
   remap(near_owner, pair_to_, near_kept, row_to);
   remap(near_partner, pair_to_, near_kept, row_to);
   remap(near_verlet_, pair_to_, near_kept, pair_to);  // (pair_to: the Verlet pairs' map)
-  compact(near_cut2, pair_to_, near_kept);
-  compact(near_entry, pair_to_, near_kept);
+  if (cut_mask != 0) compact(near_cut2, pair_to_, near_kept);
+  if (entry_mask != 0) compact(near_entry, pair_to_, near_kept);  // (else width values, still right)
   for (Array<double>* a : c.contacts.pairs.carried()) compact(*a, pair_to_, near_kept);
   compact(c.contacts.pairs.touch, pair_to_, near_kept);
   const std::size_t rev_kept = drop_rows(near_rev_offset, row_to, pair_to, &near_rev, &pair_to_);

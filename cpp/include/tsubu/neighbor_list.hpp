@@ -47,11 +47,17 @@ class NeighborList {
   // ---- the lists (read by the engine's views) ---------------------------------------------
   Array<Index> pair_offset, pair_partner;  // Verlet list: rows by owner (internal index)
   Array<Index> near_offset, near_owner, near_partner, near_rev_offset, near_rev;
-  Array<double> near_cut2;  // (r_i + r_j)^2
+  Array<double> near_cut2;  // (r_i + r_j)^2 of entry q at q & cut_mask
   // The law's terms of each near pair (ContactLaw::entry_terms, CompiledLaw::entry_width per
   // entry: for the linear law the dashpot itself; for Hertz sqrt(R*) and the dashpot's mass
-  // term), fixed while the pair is in the list: square roots saved per contact and step.
+  // term), fixed while the pair is in the list: square roots saved per contact and step. Entry
+  // q's are at width * (q & entry_mask).
   Array<double> near_entry;
+  // 0 where one value serves every entry, else all ones: cut_mask where every sphere held has
+  // one radius, entry_mask where they also have one mass, material and mobility (fixed or not).
+  // Then the arrays hold that one value, and the step streams 8 + 8 width bytes less per entry
+  // (the monodisperse hopper: 8 % faster; the dense bed: 3 %).
+  Index cut_mask = ~Index(0), entry_mask = ~Index(0);
   // The walls' two levels, as the pairs': the reach list, the (wall, element) keys within
   // r + skin of each sphere, rows by sphere (built at a rebuild, keys only); and the near-wall
   // list, its entries within r + the reach (all of them if a wall moves, and every touching one),

@@ -71,16 +71,21 @@ struct Blocked {
   // a force is not finite.
   TSUBU_INLINE static bool pairs(const ContactView& c, const Scan& s, int len, Block& b,
                                  double& excess, double& fmax) {
-    if (c.same)
-      gather<true>(c, s, len, b, excess);
+    // (The block's own loops for one material, and for entries that share one cut and one set
+    // of terms (NeighborList::cut_mask): values read once, not per lane.)
+    const bool one = c.cut_mask == 0 && c.entry_mask == 0;
+    if (c.same && one)
+      gather<true, true>(c, s, len, b, excess);
+    else if (c.same)
+      gather<true, false>(c, s, len, b, excess);
     else
-      gather<false>(c, s, len, b, excess);
+      gather<false, false>(c, s, len, b, excess);
     const bool bad = evaluate<true>(b, s, len, c.dt, fmax);
     store(c, s.act, len, b);
     return bad;
   }
 
-  template <bool kSame>
+  template <bool kSame, bool kOne>
   static void gather(const ContactView& c, const Scan& s, int len, Block& b, double& excess) {
     // The view's pointers as locals, and the largest excess in a local: the byte store to
     // b.inside may alias anything, and gcc would reload each of them after it.
@@ -88,6 +93,7 @@ struct Blocked {
     const double *const r = c.r, *const v = c.v, *const w = c.w, *const cut2 = c.cut2;
     const double *const entry = c.entry, *const history = c.xi, *const moment = c.nxft;
     const std::uint8_t* const touch = c.touch;
+    const Index cut_mask = kOne ? 0 : c.cut_mask, entry_mask = kOne ? 0 : c.entry_mask;
     const double limit = c.limit;
     double most = excess;
     for (int a = 0; a < len; ++a) {
@@ -102,13 +108,14 @@ struct Blocked {
         const L3 spin = C::spin_part(ci, lanes(vec3(w, i)), cj, lanes(vec3(w, j)));
         b.spx[a] = spin.x, b.spy[a] = spin.y, b.spz[a] = spin.z;
       }
-      bool inside = dist2 < cut2[q];  // (1.10); else the contact has just opened
+      const double* terms = entry + kEntry * (q & entry_mask);
+      bool inside = dist2 < cut2[q & cut_mask];  // (1.10); else the contact has just opened
       if constexpr (Law::kSticky)  // a touching contact holds to delta > -separation
-        if (touch[q]) inside = delta > -Law::entry_separation(entry + kEntry * q);
+        if (touch[q]) inside = delta > -Law::entry_separation(terms);
       b.inside[a] = inside;
       if (inside) most = std::max(most, delta - limit * std::min(ri, rj));
       b.delta[a] = delta;
-      for (int k = 0; k < kEntry; ++k) b.entry[k][a] = entry[kEntry * q + k];
+      for (int k = 0; k < kEntry; ++k) b.entry[k][a] = terms[k];
       if constexpr (!kSame) b.put_params(a, (*c.table)(c.mat[i], c.mat[j]));
       if constexpr (F::kHistory) {
         const double* xi = history + kHistory * q;

@@ -100,7 +100,7 @@ struct Contacts {
                          double rs, double dist2) {
     double lost = 0;
     if constexpr (Law::kSticky)
-      lost += sticky_energy(params, c.entry + Law::kEntryTerms * q, c.overlap[q]);
+      lost += sticky_energy(params, c.entry + Law::kEntryTerms * (q & c.entry_mask), c.overlap[q]);
     end<kPairMoment>(pair_results(c), q, params, lost);
     if constexpr (F::kRough) {
       if (params.roughness > 0) {  // a facet spring still loaded is lost with it
@@ -123,12 +123,14 @@ struct Contacts {
     const double rs = ri + rj;
     const double dist2 = dot(lanes(d), lanes(d));
     const PairParams& params = (*c.table)(c.mat[i], c.mat[j]);
+    const double* terms = c.entry + Law::kEntryTerms * (q & c.entry_mask);
+    const double cut2 = c.cut2[q & c.cut_mask];
     if constexpr (Law::kSticky) {  // a touching contact holds to delta > -separation
-      const double sep = Law::entry_separation(c.entry + Law::kEntryTerms * q);
-      if (c.touch[q] ? !(pair_overlap(ri, rj, dist2, inv_dist) > -sep) : dist2 >= c.cut2[q])
+      const double sep = Law::entry_separation(terms);
+      if (c.touch[q] ? !(pair_overlap(ri, rj, dist2, inv_dist) > -sep) : dist2 >= cut2)
         return c.touch[q] ? end_pair(c, q, params, d, rs, dist2) : 0.0;
     } else {
-      if (dist2 >= c.cut2[q]) return end_pair(c, q, params, d, rs, dist2);  // (1.10)
+      if (dist2 >= cut2) return end_pair(c, q, params, d, rs, dist2);  // (1.10)
     }
     ContactGeometry g;
     const double overlap = pair_overlap(ri, rj, dist2, inv_dist);
@@ -136,7 +138,7 @@ struct Contacts {
     const Vec3 n = d * inv_dist;
     g.n = n;
     excess = std::max(excess, g.delta - c.limit * std::min(ri, rj));
-    std::copy(c.entry + Law::kEntryTerms * q, c.entry + Law::kEntryTerms * (q + 1), g.entry);
+    std::copy(terms, terms + Law::kEntryTerms, g.entry);
     if constexpr (F::kRough) g.m_eff = c.m[i] * c.m[j] / (c.m[i] + c.m[j]);
     const Vec3 vrel = vec3(c.v, i) - vec3(c.v, j);
     if constexpr (F::kTorque) {

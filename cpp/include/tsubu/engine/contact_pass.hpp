@@ -20,14 +20,18 @@ struct ContactPass {
 
   // The pair entries [lo, hi) in contact or in contact last step, into the scan; the
   // separations found on the way are kept for the law.
+  // kOneCut: every entry's (r_i + r_j)^2 is the one value cut2[0] (NeighborList::cut_mask).
+  template <bool kOneCut>
   static Index compact_pairs(const ContactView& c, Index lo, Index hi, Scan& s) {
+    const double* const cut2 = c.cut2;
+    const double one = kOneCut ? cut2[0] : 0.0;
     Index count = 0;
     for (Index q = lo; q < hi; ++q) {
       const L3 d = lanes(Domain::displacement(vec3(c.x, c.own[q]), vec3(c.x, c.par[q])));
       const double dd = dot(d, d);
       s.act[count] = q;
       s.dx[count] = d.x, s.dy[count] = d.y, s.dz[count] = d.z, s.d2[count] = dd;
-      count += ((dd < c.cut2[q]) | (c.touch[q] != 0)) ? 1 : 0;
+      count += ((dd < (kOneCut ? one : cut2[q])) | (c.touch[q] != 0)) ? 1 : 0;
     }
     return count;
   }
@@ -49,7 +53,9 @@ struct ContactPass {
   [[gnu::noinline]] static void pair_range(const ContactView& c, Index lo, Index hi, Scan& scan,
                                            Block& block, Found& f) {
     for (Index base = lo; base < hi; base += kBlock) {
-      const Index count = compact_pairs(c, base, std::min<Index>(hi, base + kBlock), scan);
+      const Index end = std::min<Index>(hi, base + kBlock);
+      const Index count = c.cut_mask == 0 ? compact_pairs<true>(c, base, end, scan)
+                                           : compact_pairs<false>(c, base, end, scan);
       inverse_distances(scan, count);
       if constexpr (F::kBlocked) {
         if (B::pairs(c, scan, int(count), block, f.excess, f.fmax)) f.bad = 1;

@@ -64,6 +64,7 @@ struct ContactView {
   const Index *own, *par, *wown, *wall, *welement, *wnear_offset, *owned;
   Index* wnear;  // (a flat sheet's position follows its contact: MeshContacts)
   const double *cut2, *entry;  // (r_i + r_j)^2, the law's entry terms (ContactLaw::entry_terms)
+  Index cut_mask, entry_mask;  // entry q's are at q & mask (NeighborList::cut_mask)
   double limit;  // max_overlap
   double speed;  // the scene's characteristic impact speed (Simulation::characteristic_speed)
   double *xi, *force, *nxft, *roll, *overlap, *rough;
@@ -107,7 +108,8 @@ struct ContactView {
         own(l.near_owner.data()), par(l.near_partner.data()), wown(l.wall_owner.data()),
         wall(l.wall_index.data()), welement(l.wall_element.data()),
         wnear_offset(l.wall_near_offset.data()), owned(l.near_offset.data()), wnear(l.wall_near.data()),
-        cut2(l.near_cut2.data()), entry(l.near_entry.data()), limit(s.options.max_overlap),
+        cut2(l.near_cut2.data()), entry(l.near_entry.data()), cut_mask(l.cut_mask),
+        entry_mask(l.entry_mask), limit(s.options.max_overlap),
         speed(s.run.speed), xi(c.pairs.xi.data()), force(c.pairs.force.data()),
         nxft(c.pairs.nxft.data()), roll(c.pairs.roll.data()), overlap(c.pairs.overlap.data()),
         rough(c.pairs.rough.data()), wxi(c.walls.xi.data()), wforce(c.walls.force.data()),
