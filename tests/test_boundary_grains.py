@@ -96,6 +96,28 @@ def test_a_moving_fixed_sphere_drives_a_free_one_as_a_moving_wall_does(e):
     assert sim.velocities[1].tolist() == [0.5, 0.0, 0.0]
 
 
+def test_fixing_a_sphere_after_a_run_gives_the_contact_a_wall_s_mass():
+    """Two spheres of one radius and material share one set of the law's per-pair terms (the
+    dashpot's mass m* = m/2) until one is fixed: then the contact takes the free sphere's mass.
+    Fixed after the lists are built, the driver gives the bits it gives fixed from the start."""
+    e, speed, gap = 0.5, 0.5, 0.2 * R
+    m = material(restitution=e, friction=0.0)
+
+    def run(fix_late: bool):
+        sim = tsubu.Simulation(gravity=(0.0, 0.0, 0.0), dt=2e-6)
+        free = sim.add_sphere((0.0, 0.0, 0.0), R, m)
+        d = sim.add_sphere((-2 * R - gap, 0.0, 0.0), R, m, velocity=(speed, 0.0, 0.0))
+        if fix_late:
+            sim.run(steps=10)  # the lists are built while every sphere is alike
+        sim.fix_spheres(d, velocity=(speed, 0.0, 0.0))
+        sim.run(steps=10_000 - sim.step_count)
+        return sim.velocities[free]
+
+    late, early = run(True), run(False)
+    assert np.array_equal(late, early)
+    assert late[0] == pytest.approx((1 + e) * speed, rel=2e-3)  # off a wall moving at `speed`
+
+
 def test_a_spinning_fixed_sphere_keeps_its_spin_and_drags_a_neighbour():
     m = material(friction=0.5)
     sim = tsubu.Simulation(gravity=G, dt=1e-5)
