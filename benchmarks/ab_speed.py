@@ -112,17 +112,18 @@ def lockstep_round(args, paths, scene: str) -> dict:
     cpu = max(os.sched_getaffinity(0))
     code = LOCK_CHILD.format(here=HERE, threads=args.threads, build=build, warmup=warmup, cpu=cpu)
     procs = {}
-    for which in ("a", "b"):
-        env = dict(os.environ, OMP_NUM_THREADS=str(args.threads))
-        env.pop("PYTHONPATH", None)
-        if paths[which]:
-            env["PYTHONPATH"] = paths[which]
-        procs[which] = subprocess.Popen([getattr(args, which), "-c", code], env=env, cwd="/", text=True,
-                                        stdin=subprocess.PIPE, stdout=subprocess.PIPE)
     times = {"a": [], "b": []}
     try:
-        for p in procs.values():
-            if p.stdout.readline().strip() != "ready":
+        # One child at a time builds the scene: a packing that is not cached yet is made once
+        # (two children writing the same cache file at once would race).
+        for which in ("a", "b"):
+            env = dict(os.environ, OMP_NUM_THREADS=str(args.threads))
+            env.pop("PYTHONPATH", None)
+            if paths[which]:
+                env["PYTHONPATH"] = paths[which]
+            procs[which] = subprocess.Popen([getattr(args, which), "-c", code], env=env, cwd="/", text=True,
+                                            stdin=subprocess.PIPE, stdout=subprocess.PIPE)
+            if procs[which].stdout.readline().strip() != "ready":
                 raise RuntimeError(f"a lockstep child failed to build {scene}")
         for turn in range(args.turns):
             for which in (("a", "b") if turn % 2 == 0 else ("b", "a")):

@@ -239,6 +239,7 @@ def packing(n: int, workdir: str, threads=None, log=_say) -> dict:
         return load_state(path)
     log(f"filling the hopper with {n} spheres (cached as {path}) ...")
     state = fill_packing(n, threads=threads, log=log)
+    os.makedirs(workdir, exist_ok=True)  # (a caller other than main(): ab_speed.py's children)
     tmp = path + ".tmp.npz"
     np.savez_compressed(tmp, **state)
     os.replace(tmp, path)

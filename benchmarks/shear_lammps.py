@@ -200,6 +200,7 @@ def packing(n: int, workdir: str, phi: float = PHI, threads=None, log=_say) -> d
         return load_state(path)
     log(f"packing {n} spheres at solid fraction {phi} (cached as {path}) ...")
     state = make_packing(n, phi, threads=threads, log=log)
+    os.makedirs(workdir, exist_ok=True)  # (a caller other than main(): ab_speed.py's children)
     tmp = path + ".tmp.npz"
     np.savez_compressed(tmp, **state)
     os.replace(tmp, path)
