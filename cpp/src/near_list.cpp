@@ -490,43 +490,24 @@ void NeighborList::build_sum_entries(const Context& c) {
   }
   running_sums(sum_offset.data(), nbl, scan_threads(c));
   fit(sum_entry, static_cast<std::size_t>(sum_offset[nb]));
-  // Each kind of entry in one flat loop, each entry to its particle's run at a base per
-  // particle and kind (walls, then owned pairs, then reverse pairs): no loop per particle,
-  // whose short, uneven lengths the branch predictor misses.
-  const long ni = static_cast<long>(c.particles.size());
-  fit(sum_base_, 3 * static_cast<std::size_t>(ni));
-  // base[3 k + kind]: particle k's first place for that kind, less the kind's first index.
-  Index* base = sum_base_.data();
+  // Each busy particle's run: its walls, then its owned pairs, then its reverse pairs (rows by
+  // source: a ghost partner's entries are its source's), each particle's written by one thread.
+  // (Per particle rather than one flat loop per kind, which needed 12 bytes a particle of bases:
+  // this runs at refreshes only.)
+  std::uint32_t* out = sum_entry.data();
+  const bool sheets = !wall_sheet.empty();
 #pragma omp parallel for schedule(static) num_threads(c.threads) if (c.parallel)
   for (long b = 0; b < nbl; ++b) {
     const Index k = busy[b];
-    const Index walls = wall_near_offset[k + 1] - wall_near_offset[k];
-    const Index owned = near_offset[k + 1] - near_offset[k];
-    base[3 * k + 2] = sum_offset[b] - wall_near_offset[k];
-    base[3 * k] = sum_offset[b] + walls - near_offset[k];
-    base[3 * k + 1] = sum_offset[b] + walls + owned - near_rev_offset[k];
-  }
-  std::uint32_t* out = sum_entry.data();
-  const long walls = static_cast<long>(wall_near.size()), m = static_cast<long>(near_partner.size());
-  const std::size_t n = c.particles.size();
-#pragma omp parallel num_threads(c.threads) if (c.parallel)
-  {
-#pragma omp for schedule(static) nowait
-    for (long p = 0; p < walls; ++p) {
-      const Index at = base[3 * wall_owner[wall_near[p]] + 2] + static_cast<Index>(p);
-      if (!wall_sheet.empty() && wall_sheet[p] >= 0)  // (the holder moves: the step rewrites it)
-        sheet_slot[wall_sheet[p]] = at;
+    Index at = sum_offset[b];
+    for (Index p = wall_near_offset[k]; p < wall_near_offset[k + 1]; ++p, ++at) {
+      if (sheets && wall_sheet[p] >= 0) sheet_slot[wall_sheet[p]] = at;  // (the holder moves: the step rewrites it)
       out[at] = (std::uint32_t(wall_near[p]) << 3) | 2u;
     }
-#pragma omp for schedule(static) nowait
-    for (long q = 0; q < m; ++q) out[base[3 * near_owner[q]] + q] = std::uint32_t(q) << 3;
-#pragma omp for schedule(static)
-    for (long p = 0; p < m; ++p) {
-      const Index q = near_rev[p];
-      out[base[3 * c.domain.source(near_partner[q], n) + 1] + p] = (std::uint32_t(q) << 3) | 1u;
-    }
-#pragma omp for schedule(static)
-    for (long b = 0; b < nbl; ++b) out[sum_offset[b]] |= 4u;  // a busy particle has at least one entry
+    for (Index q = near_offset[k]; q < near_offset[k + 1]; ++q, ++at) out[at] = std::uint32_t(q) << 3;
+    for (Index p = near_rev_offset[k]; p < near_rev_offset[k + 1]; ++p, ++at)
+      out[at] = (std::uint32_t(near_rev[p]) << 3) | 1u;
+    out[sum_offset[b]] |= 4u;  // a busy particle has at least one entry
   }
 }
 

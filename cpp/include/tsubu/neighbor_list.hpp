@@ -259,7 +259,6 @@ class NeighborList {
   std::vector<Array<Index>> verlet_parts_;  // build_verlet: the partners of each thread's rows (but the first's)
   std::vector<Array<Index>> verlet_rows_;   // build_verlet: each thread's candidates of one row
   Array<std::uint8_t> near_kept_;  // refresh_near: 1 for each Verlet pair within the reach
-  Array<Index> sum_base_;  // build_sum_entries: where each particle's entries of each kind go
   // Each near entry's Verlet pair (kept through removals: a refresh's stash is keyed by it);
   // refresh_near's scratch: each Verlet pair's near entry, or -1.
   Array<Index> near_verlet_, near_of_verlet_;
