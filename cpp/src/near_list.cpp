@@ -53,7 +53,6 @@ void NeighborList::refresh_near(const Context& c, bool transfer, bool reordered,
   fit_touched(near_cut2, one_radius ? 1 : m, scan_threads(c));
   if (one_radius) near_cut2[0] = (r[0] + r[0]) * (r[0] + r[0]);
   fit_touched(near_verlet_, m, scan_threads(c));
-  fit(near_of_verlet_, kept.size());
   // (How far a partner lies down or up the array from its owner: the reverse index's reach.)
   Index below = 0, above = 0;
 #pragma omp parallel for schedule(static) num_threads(c.threads) if (c.parallel) reduction(max : below, above)
@@ -61,7 +60,6 @@ void NeighborList::refresh_near(const Context& c, bool transfer, bool reordered,
     Index q = near_offset[i];
     for (Index e = pair_offset[i]; e < pair_offset[i + 1]; ++e) {
       const Index j = pair_partner[e];
-      near_of_verlet_[e] = kept[e] ? q : -1;
       if (!kept[e]) continue;
       near_verlet_[q] = e;
       near_owner[q] = static_cast<Index>(i);
@@ -178,25 +176,29 @@ void NeighborList::carry_pairs(const Context& c, bool reordered) {
     ps.dissipated[i] += spring_energy(c, ps.material[i], ps.material[j], cs.stash_pairs[0], p);
   };
   if (!reordered && cs.stash_by_verlet) {
-    // A refresh: each stashed entry goes to its Verlet pair's new entry, where it has one
-    // (no search, no branch on a coin toss).
-    const long stashed = static_cast<long>(none);
-    long left = 0;
-#pragma omp parallel num_threads(c.threads) if (c.parallel)
-    {
-#pragma omp for schedule(static)
-      for (long q = 0; q < m; ++q) source[q] = none;
-#pragma omp for schedule(static) reduction(+ : left)
-      for (long p = 0; p < stashed; ++p) {
-        const Index q = near_of_verlet_[old_key[p]];
-        taken[p] = q >= 0;
-        if (q >= 0) source[q] = static_cast<Index>(p);
-        left += q < 0;
+    // A refresh: each row's stashed entries and new entries, both in Verlet-pair order, merged
+    // (a map from every Verlet pair to its new entry would cost 4 bytes a Verlet pair: 13 bytes
+    // a sphere at N = 1e6). Each row writes only its own entries and its own dissipation.
+    const long rows = std::min(ni, static_cast<long>(old_n));
+#pragma omp parallel for schedule(static) num_threads(c.threads) if (c.parallel)
+    for (long i = 0; i < ni; ++i) {
+      Index p = i < rows ? old_offset[i] : 0;
+      const Index p_end = i < rows ? old_offset[i + 1] : 0;
+      for (Index q = near_offset[i]; q < near_offset[i + 1]; ++q) {
+        const Id e = near_verlet_[q];
+        for (; p < p_end && old_key[p] < e; ++p) {  // (a sticky law's contact held beyond the reach)
+          taken[p] = 0;
+          opened(i, p, pair_partner[old_key[p]]);
+        }
+        const bool found = p < p_end && old_key[p] == e;
+        source[q] = found ? p : none;
+        if (found) taken[p++] = 1;
+      }
+      for (; p < p_end; ++p) {
+        taken[p] = 0;
+        opened(i, p, pair_partner[old_key[p]]);
       }
     }
-    for (long i = 0; i < ni && left > 0; ++i)  // (a sticky law's contact held beyond the reach)
-      for (Index p = old_offset[i]; p < old_offset[i + 1]; ++p)
-        if (!taken[p]) opened(i, p, pair_partner[old_key[p]]);
   } else {
     // After a rebuild: rows merged by partner id (both sorted by it). Each row writes only its
     // own entries, its own old row and its own dissipation.

@@ -398,7 +398,7 @@ std::size_t NeighborList::scratch_bytes() const {
   std::size_t parts = 0;
   for (const Array<Index>& a : verlet_parts_) parts += capacity_bytes(a);
   for (const Array<Index>& a : verlet_rows_) parts += capacity_bytes(a);
-  return parts + capacity_bytes(near_kept_, near_verlet_, near_of_verlet_, carry_source_,
+  return parts + capacity_bytes(near_kept_, near_verlet_, carry_source_,
                                 carry_taken_, cell_start_, cell_of_, cell_key_, perm_, old_index_of_,
                                 active, scratch_, scratch_int_, reach_to_, reach_keep_, wall_rows_,
                                 sheet_mark_, wall_near_next_, sheet_rows_[0], sheet_rows_[1],

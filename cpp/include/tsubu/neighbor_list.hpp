@@ -259,9 +259,9 @@ class NeighborList {
   std::vector<Array<Index>> verlet_parts_;  // build_verlet: the partners of each thread's rows (but the first's)
   std::vector<Array<Index>> verlet_rows_;   // build_verlet: each thread's candidates of one row
   Array<std::uint8_t> near_kept_;  // refresh_near: 1 for each Verlet pair within the reach
-  // Each near entry's Verlet pair (kept through removals: a refresh's stash is keyed by it);
-  // refresh_near's scratch: each Verlet pair's near entry, or -1.
-  Array<Index> near_verlet_, near_of_verlet_;
+  // Each near entry's Verlet pair (kept through removals: a refresh's stash is keyed by it, and
+  // carry_pairs merges each row's stash and new entries, both in Verlet-pair order).
+  Array<Index> near_verlet_;
   // carry_pairs: each new entry's stashed row (the stash's zero row where none); 1 for each
   // stashed entry carried.
   Array<Index> carry_source_;
