@@ -48,7 +48,8 @@ void NeighborList::refresh_near(const Context& c, bool transfer, bool reordered,
   const std::size_t m = static_cast<std::size_t>(near_offset[n]);
   fit_touched(near_owner, m, scan_threads(c));
   fit_touched(near_partner, m, scan_threads(c));
-  const bool one_radius = !ps.radius.empty() && all_equal(ps.radius);
+  const Alike alike = alike_spheres(ps, scan_threads(c));
+  const bool one_radius = alike.radius;
   cut_mask = one_radius ? 0 : ~Index(0);
   fit_touched(near_cut2, one_radius ? 1 : m, scan_threads(c));
   if (one_radius) near_cut2[0] = (r[0] + r[0]) * (r[0] + r[0]);
@@ -149,7 +150,7 @@ void NeighborList::refresh_near(const Context& c, bool transfer, bool reordered,
   for (std::size_t e = 0; e < wall_near.size(); ++e) wall_near[e] = static_cast<Index>(e);
   gather_sheets(c);
   index_entries(c);
-  cache_terms(c);
+  cache_terms(c, alike.body);
   moved_near = 0;
   near_steps = 0;
   ++refreshes;
@@ -539,13 +540,16 @@ void NeighborList::measure(const Context& c) {
 }
 
 void NeighborList::cache_terms(const Context& c) {
+  cache_terms(c, alike_spheres(c.particles.arrays(), scan_threads(c)).body);
+}
+
+void NeighborList::cache_terms(const Context& c, bool one) {
   const std::size_t width = c.law.entry_width;
   const ParticleStore& ps = c.particles.arrays();
   const double *mass = ps.mass.data(), *radius = ps.radius.data(), *inv_mass = ps.inv_mass.data();
   const int* material = ps.material.data();
-  // (Every pair of such spheres has the terms of sphere 0 with itself, bit for bit.)
-  const bool one = !ps.radius.empty() && all_equal(ps.radius) && all_equal(ps.mass) &&
-                   all_equal(ps.inv_mass) && all_equal(ps.material);
+  // (`one`: alike spheres, alike_spheres; every pair of them has the terms of sphere 0 with
+  // itself, bit for bit.)
   entry_mask = one ? 0 : ~Index(0);
   fit(near_entry, width * (one ? 1 : near_partner.size()));
   const long m = one ? 1 : static_cast<long>(near_partner.size());

@@ -181,6 +181,8 @@ class NeighborList {
   std::size_t scratch_bytes() const;
 
  private:
+  // cache_terms, with whether every sphere held has one radius, mass, inverse mass and material.
+  void cache_terms(const Context& c, bool one_body);
   // The cell grid of a rebuild (cell_grid.cpp): dense (every cell of the particles' bounding
   // box, cell c = (z dims_y + y) dims_x + x) when that is at most 2 N + 1000 cells, else sparse:
   // only the occupied cells, by their sorted (z, y, x) keys in cell_key_, so that spheres

@@ -94,11 +94,11 @@ struct Blocked {
     const double *const entry = c.entry, *const history = c.xi, *const moment = c.nxft;
     const std::uint8_t* const touch = c.touch;
     const Index cut_mask = kOne ? 0 : c.cut_mask, entry_mask = kOne ? 0 : c.entry_mask;
-    const double limit = c.limit;
+    const double limit = c.limit, r0 = r[0];
     double most = excess;
     for (int a = 0; a < len; ++a) {
       const Index q = s.act[a], i = own[q], j = par[q];
-      const double ri = r[i], rj = r[j];
+      const double ri = kOne ? r0 : r[i], rj = kOne ? r0 : r[j];  // (alike spheres: one radius)
       const double dist2 = s.d2[a], inv = s.inv[a];
       const double delta = pair_overlap(ri, rj, dist2, inv);
       const double ci = contact_lever(ri, delta), cj = contact_lever(rj, delta);
@@ -276,14 +276,14 @@ struct Blocked {
     for (int a = 0; a < len; ++a) {
       const Index i = c.wown[e[a]];
       const Wall& P = wall_plane(c, e[a]);
-      const PairParams& p = (*c.table)(c.mat[i], P.material);
+      const PairParams& p = (*c.table)(c.mat[i & c.entry_mask], P.material);
       const Vec3 xi_pos = vec3(c.x, i);
-      const double ri = c.r[i];
+      const double ri = c.r[i & c.cut_mask];
       const double delta = P.overlap(xi_pos, ri);  // (3.1), signed: a half-space
       const Vec3& n = P.normal_at(xi_pos);
       double terms[kEntry];
       if constexpr (Law::kSticky) {  // a touching contact holds to delta > -separation
-        Law::entry_terms(p, c.m[i], ri, terms);  // (a wall: R* = r_i, m* = m_i)
+        Law::entry_terms(p, c.m[i & c.entry_mask], ri, terms);  // (a wall: R* = r_i, m* = m_i)
         b.inside[a] = delta > (c.wtouch[e[a]] ? -Law::entry_separation(terms) : 0.0);
       } else {
         b.inside[a] = delta > 0;
@@ -295,7 +295,7 @@ struct Blocked {
       b.nx[a] = n.x(), b.ny[a] = n.y(), b.nz[a] = n.z();
       b.vtx[a] = vt.x(), b.vty[a] = vt.y(), b.vtz[a] = vt.z();
       b.delta[a] = delta, b.vn[a] = vn;
-      if constexpr (!Law::kSticky) Law::entry_terms(p, c.m[i], ri, terms);  // (a wall: R* = r_i, m* = m_i)
+      if constexpr (!Law::kSticky) Law::entry_terms(p, c.m[i & c.entry_mask], ri, terms);  // (a wall: R* = r_i, m* = m_i)
       for (int k = 0; k < kEntry; ++k) b.entry[k][a] = terms[k];
       b.put_params(a, p);
       if constexpr (F::kHistory) {

@@ -199,7 +199,7 @@ struct Contacts {
   // set in `ci`): returns v_n; sets the tangential velocity (1.12) where the law has one.
   TSUBU_INLINE static double wall_approach(const ContactView& c, const Wall& P, Index i, const Vec3& n,
                               double delta, double& ci, Vec3& vt) {
-    ci = contact_lever(c.r[i], delta);
+    ci = contact_lever(c.r[i & c.cut_mask], delta);
     Vec3 vrel = vec3(c.v, i);
     if (c.moving) vrel -= P.velocity_at(Wall::contact_point(vec3(c.x, i), ci, n));
     const double vn = vrel.dot(n);

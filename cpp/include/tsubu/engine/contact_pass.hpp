@@ -101,7 +101,7 @@ struct ContactPass {
     auto in_contact = [&](Index p) {
       const Index e = c.wnear[p];
       const Wall& P = wall_plane(c, e);
-      const double gap = P.distance(vec3(c.x, c.wown[e])) - c.r[c.wown[e]];
+      const double gap = P.distance(vec3(c.x, c.wown[e])) - c.r[c.wown[e] & c.cut_mask];
       return (gap < 0) | (c.wtouch[e] != 0);
     };
     // (Where the measure held a triangle clear, its plane is not read: most of a fine mesh's.)

@@ -130,15 +130,15 @@ struct ParticlePass {
     const double *const inv_m = pv.inv_m, *const inv_i = pv.inv_i;
     std::uint8_t* const loaded = pv.loaded;
     const Index* const busy = pv.busy;
-    const Index nb = pv.nb;
+    const Index nb = pv.nb, body = pv.body_mask;
     const double dt = pv.dt;
     // Particle k in contact takes its sums: v += dt F/m, w += dt T/I. Returns 0, or NaN if
     // the new spin is not finite.
     auto kick = [=](Index k, const auto& F, const auto& T) {
       loaded[k] = 0;
-      vec3(v, k) += (dt * inv_m[k]) * F;
+      vec3(v, k) += (dt * inv_m[k & body]) * F;
       if constexpr (Features<Law>::kTorque) {
-        const Vec3 wk = vec3(w, k) + (dt * inv_i[k]) * T;
+        const Vec3 wk = vec3(w, k) + (dt * inv_i[k & body]) * T;
         vec3(w, k) = wk;
         return nonfinite_flag(wk.sum());
       }
@@ -163,7 +163,7 @@ struct ParticlePass {
       for (Index r0 = b0; r0 < b; r0 += kFlatRun) {
         const Index r1 = std::min(b, r0 + kFlatRun);
         double rads[kFlatRun], out[8 * kFlatRun];
-        for (Index a = r0; a < r1; ++a) rads[a - r0] = pv.radius[busy[a]];
+        for (Index a = r0; a < r1; ++a) rads[a - r0] = pv.radius[busy[a] & pv.radius_mask];
         const Index rm = r0 + (r1 - r0) / 2;
         flat_sums(pv.sum_entry, pv.sum_offset[r0], pv.sum_offset[rm], pv.sum_offset[r1], rm - r0,
                   pv.sums, rads, out);

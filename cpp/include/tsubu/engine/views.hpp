@@ -144,6 +144,9 @@ struct ParticleView {
   ContactSums sums;
   const std::uint32_t* sum_entry;
   const Index* sum_offset;
+  // Particle k's radius is at k & radius_mask, its inverse mass and inertia at k & body_mask
+  // (NeighborList::cut_mask and entry_mask: 0 for alike spheres, read once).
+  Index radius_mask, body_mask;
   bool flat;
   // The pass also finds max |v - u|^2 (Stepper::run's lists bound in a Lees–Edwards box with
   // no walls; not where fixed spheres are placed after the pass).
@@ -163,7 +166,8 @@ struct ParticleView {
         inv_i(p.inv_inertia.data()), radius(p.radius.data()), busy(l.busy.data()),
         n(Index(s.particles.size())), nb(Index(l.busy.size())), loaded(l.loaded.data()),
         sums(l, s.contacts, s.particles), sum_entry(l.sum_entry.data()),
-        sum_offset(l.sum_offset.data()), flat(l.sum_offset.size() == std::size_t(nb) + 1),
+        sum_offset(l.sum_offset.data()), radius_mask(l.cut_mask), body_mask(l.entry_mask),
+        flat(l.sum_offset.size() == std::size_t(nb) + 1),
         relative(s.streaming() && !s.fixed),
         flow(s.domain.mean_flow()), threads(s.threads), dt(dt_), gx(dt_ * s.options.gravity.x()),
         gy(dt_ * s.options.gravity.y()), gz(dt_ * s.options.gravity.z()) {}
