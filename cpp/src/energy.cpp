@@ -113,7 +113,8 @@ void Simulation::for_each_contact_sum(Out&& out) const {
     for (std::size_t k = 0; k < particles_.size(); ++k) out(k, Vec3(Vec3::Zero()), Vec3(Vec3::Zero()));
     return;
   }
-  const detail::ContactSums sums(lists_, contacts_, particles_);
+  detail::ContactSums sums(lists_, contacts_, particles_);
+  sums.rmask = ~Index(0);  // (outside a run: every radius read, whatever the lists last held)
   const bool wall_lever = !contacts_.walls.nxft.empty(), pair_lever = !contacts_.pairs.nxft.empty();
   const bool rolling = !contacts_.pairs.roll.empty();
   for (std::size_t k = 0; k < particles_.size(); ++k) {

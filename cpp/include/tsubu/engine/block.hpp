@@ -85,6 +85,26 @@ struct Blocked {
     return bad;
   }
 
+  // Requests what the gather and store of entries s.act[0, len) read from memory: the
+  // partners' (and owners') velocities and spins, the entries' histories and the owners'
+  // dissipation sums. Where the contacts are few and scattered (a large scene), each is a miss;
+  // requested together, the misses overlap instead of queueing behind the gather's long
+  // iterations.
+  static void request_pairs(const ContactView& c, const Scan& s, Index len) {
+    for (Index a = 0; a < len; ++a) {
+      const Index q = s.act[a], i = c.own[q], j = c.par[q];
+      request(c.v + 3 * j);
+      request(c.v + 3 * i);
+      if constexpr (F::kTangential) {
+        request(c.w + 3 * j);
+        request(c.w + 3 * i);
+        request(c.nxft + 3 * q);
+      }
+      if constexpr (F::kHistory) request(c.xi + kHistory * q);
+      request(c.diss + i);
+    }
+  }
+
   template <bool kSame, bool kOne>
   static void gather(const ContactView& c, const Scan& s, int len, Block& b, double& excess) {
     // The view's pointers as locals, and the largest excess in a local: the byte store to

@@ -15,7 +15,7 @@ namespace tsubu::detail {
 template <class Law>
 struct ParticlePass {
   using F = Features<Law>;
-  static constexpr Index kChunk = 2048, kAhead = 8;
+  static constexpr Index kChunk = 2048, kStage = 4;
 
   // v += dt g, x += dt v over particles [lo, hi); returns max |v|^2 and a sum that is not
   // finite if a velocity is not; kRelative: also max |v - u|^2, u the Lees–Edwards mean flow at
@@ -146,9 +146,9 @@ struct ParticlePass {
     };
     double kicked = 0;
     // The chunk's particles in contact, listed without branches; then their sums, each
-    // prefetching the offsets and velocities of the particle kAhead places further down the
-    // list (at N = 1e6 the particles in contact are a few per cent, scattered, and each read
-    // would otherwise wait on memory).
+    // requesting the data of the particles further down the list, in three stages
+    // (ContactSums::prefetch: at N = 1e6 the particles in contact are a few per cent,
+    // scattered, and each read would otherwise wait on memory).
     Index list[kChunk];
     Index count = 0;
     const Index b0 = b;
@@ -176,7 +176,9 @@ struct ParticlePass {
       count = 0;
     }
     for (Index a = 0; a < count; ++a) {
-      if (a + kAhead < count) pv.sums.prefetch(list[a + kAhead], v, w);
+      if (a + 3 * kStage < count) pv.sums.prefetch(list[a + 3 * kStage], v, w);
+      if (a + 2 * kStage < count) pv.sums.prefetch_owned(list[a + 2 * kStage]);
+      if (a + kStage < count) pv.sums.prefetch_reverse(list[a + kStage]);
       const Index k = list[a];
       Vec3 F = Vec3::Zero(), T = Vec3::Zero();
       pv.sums.template at<Features<Law>::kTangential,

@@ -15,27 +15,48 @@ namespace tsubu::detail {
 struct ContactSums {
   const Index *woff, *wnear, *noff, *roff, *rev;
   const double *r, *wf, *wn, *wr, *wo, *pf, *pn, *pr, *po;
+  Index rmask;  // particle k's radius is r[k & rmask] (NeighborList::cut_mask)
 
   ContactSums(const NeighborList& l, const ContactStore& c, const Particles& p)
       : woff(l.wall_near_offset.data()), wnear(l.wall_near.data()), noff(l.near_offset.data()),
         roff(l.near_rev_offset.data()), rev(l.near_rev.data()), r(p.arrays().radius.data()),
         wf(c.walls.force.data()), wn(c.walls.nxft.data()), wr(c.walls.roll.data()),
         wo(c.walls.overlap.data()), pf(c.pairs.force.data()), pn(c.pairs.nxft.data()),
-        pr(c.pairs.roll.data()), po(c.pairs.overlap.data()) {}
+        pr(c.pairs.roll.data()), po(c.pairs.overlap.data()), rmask(l.cut_mask) {}
 
-  // Requests particle k's offsets and velocities ahead of at(k).
+  // Where the particles in contact are few and scattered (a large scene), at(k) waits on memory
+  // three times: for k's offsets, for its owned entries and reverse indices, for its reverse
+  // entries. The caller requests each level a stage ahead: prefetch (offsets, velocities, radius)
+  // at distance 3 s, prefetch_owned at 2 s, prefetch_reverse at s.
   void prefetch(Index k, const double* v, const double* w) const {
     __builtin_prefetch(woff + k);
     __builtin_prefetch(noff + k);
     __builtin_prefetch(roff + k);
+    __builtin_prefetch(r + (k & rmask));
     __builtin_prefetch(v + 3 * k, 1);
     __builtin_prefetch(w + 3 * k, 1);
+  }
+  // (A past-the-end address is harmless: a prefetch does not fault.)
+  void prefetch_owned(Index k) const {
+    const Index q = noff[k];
+    __builtin_prefetch(pf + 3 * q);
+    __builtin_prefetch(pn + 3 * q);
+    __builtin_prefetch(po + q);
+    __builtin_prefetch(rev + roff[k]);
+  }
+  void prefetch_reverse(Index k) const {
+    for (Index p = roff[k]; p < roff[k + 1]; ++p) {
+      const Index q = rev[p];
+      __builtin_prefetch(pf + 3 * q);
+      __builtin_prefetch(pn + 3 * q);
+      __builtin_prefetch(po + q);
+    }
   }
 
   // kWallLever: walls store n x F_t; kPairLever: pairs store n x F; kRolling: rolling vectors.
   template <bool kWallLever, bool kPairLever, bool kRolling>
   void at(Index k, Vec3& F, Vec3& T) const {
-    const double rk = r[k];
+    const double rk = r[k & rmask];
     for (Index p = woff[k]; p < woff[k + 1]; ++p) {
       const Index e = wnear[p];
       F += vec3(wf, e);
