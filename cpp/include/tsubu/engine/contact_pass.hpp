@@ -19,10 +19,11 @@ struct ContactPass {
   using Block = typename B::Block;
 
   // The pair entries [lo, hi) in contact or in contact last step, into the scan after its
-  // first `count`; the separations found on the way are kept for the law. Returns the new count.
+  // first `count` (0, or what the far scan's refill holds already: far_pairs); the separations
+  // found on the way are kept for the law. Returns the new count.
   // kOneCut: every entry's (r_i + r_j)^2 is the one value cut2[0] (NeighborList::cut_mask).
   template <bool kOneCut>
-  static Index compact_pairs(const ContactView& c, Index lo, Index hi, Scan& s, Index count) {
+  static Index compact_pairs(const ContactView& c, Index lo, Index hi, Scan& s, Index count = 0) {
     const double* const cut2 = c.cut2;
     const double one = kOneCut ? cut2[0] : 0.0;
     for (Index q = lo; q < hi; ++q) {
@@ -46,28 +47,17 @@ struct ContactPass {
     f.fmax = std::max(f.fmax, force.cwiseAbs().sum());
   }
 
-  // Near-pair entries [lo, hi), whole owners, in blocks of up to kBlock kept entries. In a large
-  // scene the scan takes kScanStep entries at a time until the block is nearly full, so that
-  // where contacts are few among many near entries (the 1e6 drop) the blocks are still full and
-  // their data is requested together; a scene that stays in cache scans kBlock entries per
-  // block (refilling cost the dense beds 2-3 %). (The partners' positions are not requested ahead: that prefetch had been
-  // compiled away since da3e6fa, and made to run it was no faster; docs/benchmarks.md, "Walls
-  // in two levels".)
-  static constexpr Index kScanStep = 16;
+  // Near-pair entries [lo, hi), whole owners, a chunk of kBlock at a time. (The partners'
+  // positions are not requested ahead: that prefetch had been compiled away since da3e6fa, and
+  // made to run it was no faster; docs/benchmarks.md, "Walls in two levels".)
   [[gnu::noinline]] static void pair_range(const ContactView& c, Index lo, Index hi, Scan& scan,
                                            Block& block, Found& f) {
-    const bool far = std::size_t(c.n) >= ContactView::kFar;
-    const Index step = far ? kScanStep : kBlock;
-    for (Index base = lo; base < hi;) {
-      Index count = 0;
-      do {
-        const Index end = std::min<Index>(hi, base + step);
-        count = c.cut_mask == 0 ? compact_pairs<true>(c, base, end, scan, count)
-                                : compact_pairs<false>(c, base, end, scan, count);
-        base = end;
-      } while (base < hi && count <= kBlock - step);
-      if constexpr (F::kBlocked)
-        if (far) B::request_pairs(c, scan, count);
+    if constexpr (F::kBlocked)
+      if (std::size_t(c.n) >= ContactView::kFar) return far_pairs(c, lo, hi, scan, block, f);
+    for (Index base = lo; base < hi; base += kBlock) {
+      const Index end = std::min<Index>(hi, base + kBlock);
+      const Index count = c.cut_mask == 0 ? compact_pairs<true>(c, base, end, scan)
+                                           : compact_pairs<false>(c, base, end, scan);
       inverse_distances(scan, count);
       if constexpr (F::kBlocked) {
         if (B::pairs(c, scan, int(count), block, f.excess, f.fmax)) f.bad = 1;
@@ -83,6 +73,28 @@ struct ContactPass {
           note_force(vec3(c.force, q), f);
         }
       }
+    }
+  }
+
+  // A scene too large to stay in cache (the blocked laws): the scan takes kScanStep entries at a
+  // time until the block is nearly full, and the block's data is requested together before the
+  // law reads it (Blocked::request_pairs). Where contacts are few among many near entries (the
+  // 1e6 drop: 25,000 contacts in 400,000 entries) the blocks are still full and their misses
+  // overlap; in cache, the refill cost the dense beds 1-2 % (pair_range's loop instead).
+  static constexpr Index kScanStep = 16;
+  [[gnu::noinline]] static void far_pairs(const ContactView& c, Index lo, Index hi, Scan& scan,
+                                          Block& block, Found& f) {
+    for (Index base = lo; base < hi;) {
+      Index count = 0;
+      do {
+        const Index end = std::min<Index>(hi, base + kScanStep);
+        count = c.cut_mask == 0 ? compact_pairs<true>(c, base, end, scan, count)
+                                : compact_pairs<false>(c, base, end, scan, count);
+        base = end;
+      } while (base < hi && count <= kBlock - kScanStep);
+      B::request_pairs(c, scan, count);
+      inverse_distances(scan, count);
+      if (B::pairs(c, scan, int(count), block, f.excess, f.fmax)) f.bad = 1;
     }
   }
 

@@ -175,10 +175,13 @@ struct ParticlePass {
       }
       count = 0;
     }
+    const bool far = std::size_t(pv.n) >= ContactView::kFar;  // (else all in cache: no requests)
     for (Index a = 0; a < count; ++a) {
-      if (a + 3 * kStage < count) pv.sums.prefetch(list[a + 3 * kStage], v, w);
-      if (a + 2 * kStage < count) pv.sums.prefetch_owned(list[a + 2 * kStage]);
-      if (a + kStage < count) pv.sums.prefetch_reverse(list[a + kStage]);
+      if (far) {
+        if (a + 3 * kStage < count) pv.sums.prefetch(list[a + 3 * kStage], v, w);
+        if (a + 2 * kStage < count) pv.sums.prefetch_owned(list[a + 2 * kStage]);
+        if (a + kStage < count) pv.sums.prefetch_reverse(list[a + kStage]);
+      }
       const Index k = list[a];
       Vec3 F = Vec3::Zero(), T = Vec3::Zero();
       pv.sums.template at<Features<Law>::kTangential,
