@@ -14,6 +14,11 @@ Cluster: 13 x 13 x 13 spheres 1.05 mm apart with random velocities of 0.3 m/s (e
 its neighbours within a few hundred steps: a few hundred contacts at a time among ~4,000 near
 entries, sparse as in the 1e6 lattice drop), frictional with tangential history, no gravity, no
 walls. Lattice: 40 x 40 x 41 spheres 0.2 m away, at rest but for 1 mm/s of noise.
+
+From 32,768 near pairs on (engine/views.hpp, ParticleView::kAskPairs) the particle pass's flat sums
+request their entries' results ahead (ParticlePass::flat_sums). The same check holds: a pressed
+cluster, whose sums are flat, moves the same alone and beside a pressed block of 13,500 spheres
+(some 39,000 near pairs, fewer than 65,536 spheres).
 """
 
 from __future__ import annotations
@@ -81,3 +86,42 @@ def test_a_cluster_moves_the_same_alone_and_in_a_large_scene(polydisperse, threa
     key_b = np.lexsort((cb["j"][mine], cb["i"][mine]))
     for name in ("i", "j", "overlap", "force", "tangential_displacement"):
         assert np.array_equal(np.asarray(contacts[name])[key_a], np.asarray(cb[name])[mine][key_b]), name
+
+
+ASK_PAIRS = 32_768  # near pairs: ParticleView::kAskPairs
+
+
+def pressed(side, origin, rng) -> np.ndarray:
+    """A lattice of 1 mm spheres 0.99 mm apart: every neighbour pressed 10 um."""
+    return lattice(side, 0.99e-3, origin) + rng.normal(0.0, 1e-6, (int(np.prod(side)), 3))
+
+
+def pressed_scene(with_block: bool, threads: int) -> tsubu.Simulation:
+    rng = np.random.default_rng(5)
+    grain = tsubu.Material(density=2500.0, kn=1e3, restitution=0.5, friction=0.5)
+    sim = tsubu.Simulation(gravity=(0.0, 0.0, 0.0), dt=DT, threads=threads, skin=0.2e-3)
+    cluster = pressed((13, 13, 13), (0.0, 0.0, 0.0), rng)
+    sim.add_spheres(cluster, np.full(len(cluster), 0.5e-3), grain,
+                    velocities=rng.normal(0.0, 0.05, cluster.shape))
+    if with_block:
+        block = pressed((30, 30, 15), (0.1, 0.0, 0.0), rng)
+        sim.add_spheres(block, np.full(len(block), 0.5e-3), grain,
+                        velocities=rng.normal(0.0, 0.05, block.shape))
+    return sim
+
+
+@pytest.mark.parametrize("threads", [1, 2])
+def test_a_pressed_cluster_sums_the_same_alone_and_beside_a_pressed_block(threads):
+    alone = pressed_scene(False, 1)
+    big = pressed_scene(True, threads)
+    n = len(alone)
+    assert len(big) < LARGE
+    alone.run(steps=50)  # (half a contact's duration: the pressed spheres are still in contact)
+    big.run(steps=50)
+    # The cluster is pressed throughout (its sums are flat), and the block makes the scene's near
+    # pairs more than ASK_PAIRS: three pressed neighbours per sphere.
+    assert len(alone.contacts()["i"]) > 2.5 * n
+    assert len(big.contacts()["i"]) - len(alone.contacts()["i"]) > ASK_PAIRS
+    a, b = cluster_state(alone, n), cluster_state(big, n)
+    for name in a:
+        assert np.array_equal(a[name], b[name]), name

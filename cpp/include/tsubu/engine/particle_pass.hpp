@@ -81,6 +81,10 @@ struct ParticlePass {
   // each particle's sums are one chain of dependent additions, and two independent chains let
   // the core overlap them (the Lees–Edwards cell's particle pass: 3 % faster). The second
   // run's particles take slots from `slot_m` on.
+  // kAsk: each run requests the force and moment of its entry kAskAhead places on, before the
+  // loads that would wait for them (ParticleView::ask).
+  static constexpr Index kAskAhead = 16;
+  template <bool kAsk>
   [[gnu::noinline]] static void flat_sums(const std::uint32_t* __restrict entry, Index p0, Index pm,
                                           Index p1, std::int64_t slot_m, const ContactSums& sums,
                                           const double* rads, double* __restrict out) {
@@ -110,8 +114,21 @@ struct ParticlePass {
     };
     Run a{-1, V4{0, 0, 0, 0}, V4{0, 0, 0, 0}}, b{slot_m - 1, V4{0, 0, 0, 0}, V4{0, 0, 0, 0}};
     const std::uint32_t *pa = entry + p0, *pb = entry + pm;
+    auto ask = [&](std::uint32_t u) {
+      const std::uint32_t kind = u & 3u;
+      const std::size_t e = u >> 3;
+      request(force[kind] + 3 * e);
+      if constexpr (Features<Law>::kTangential) request(moment[kind] + 3 * e);
+    };
     const Index both = std::min(pm - p0, p1 - pm);
-    for (Index k = 0; k < both; ++k) {
+    const Index asked = kAsk ? std::max<Index>(0, both - kAskAhead) : 0;
+    for (Index k = 0; k < asked; ++k) {
+      ask(pa[k + kAskAhead]);
+      ask(pb[k + kAskAhead]);
+      add(a, pa[k]);
+      add(b, pb[k]);
+    }
+    for (Index k = asked; k < both; ++k) {
       add(a, pa[k]);
       add(b, pb[k]);
     }
@@ -165,8 +182,11 @@ struct ParticlePass {
         double rads[kFlatRun], out[8 * kFlatRun];
         for (Index a = r0; a < r1; ++a) rads[a - r0] = pv.radius[busy[a] & pv.radius_mask];
         const Index rm = r0 + (r1 - r0) / 2;
-        flat_sums(pv.sum_entry, pv.sum_offset[r0], pv.sum_offset[rm], pv.sum_offset[r1], rm - r0,
-                  pv.sums, rads, out);
+        const Index p0 = pv.sum_offset[r0], pm = pv.sum_offset[rm], p1 = pv.sum_offset[r1];
+        if (pv.ask)
+          flat_sums<true>(pv.sum_entry, p0, pm, p1, rm - r0, pv.sums, rads, out);
+        else
+          flat_sums<false>(pv.sum_entry, p0, pm, p1, rm - r0, pv.sums, rads, out);
         for (Index a = r0; a < r1; ++a) {
           const double* o = out + 8 * (a - r0);
           if (loaded[busy[a]])
