@@ -89,7 +89,8 @@ struct Blocked {
   // partners' (and owners') velocities and spins, the entries' histories and the owners'
   // dissipation sums. Where the contacts are few and scattered (a large scene), each is a miss;
   // requested together, the misses overlap instead of queueing behind the gather's long
-  // iterations.
+  // iterations. (Also where the near pairs are many, ContactView::ask: their state is then in
+  // the last-level cache, not a nearer one.)
   static void request_pairs(const ContactView& c, const Scan& s, Index len) {
     for (Index a = 0; a < len; ++a) {
       const Index q = s.act[a], i = c.own[q], j = c.par[q];

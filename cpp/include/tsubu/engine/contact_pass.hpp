@@ -47,9 +47,10 @@ struct ContactPass {
     f.fmax = std::max(f.fmax, force.cwiseAbs().sum());
   }
 
-  // Near-pair entries [lo, hi), whole owners, a chunk of kBlock at a time. (The partners'
-  // positions are not requested ahead: that prefetch had been compiled away since da3e6fa, and
-  // made to run it was no faster; docs/benchmarks.md, "Walls in two levels".)
+  // Near-pair entries [lo, hi), whole owners, a chunk of kBlock at a time; from
+  // ContactView::kAskPairs near pairs on, each block's data requested before its gather. (The
+  // partners' positions are not requested ahead: that prefetch had been compiled away since
+  // da3e6fa, and made to run it was no faster; docs/benchmarks.md, "Walls in two levels".)
   [[gnu::noinline]] static void pair_range(const ContactView& c, Index lo, Index hi, Scan& scan,
                                            Block& block, Found& f) {
     if constexpr (F::kBlocked)
@@ -58,6 +59,8 @@ struct ContactPass {
       const Index end = std::min<Index>(hi, base + kBlock);
       const Index count = c.cut_mask == 0 ? compact_pairs<true>(c, base, end, scan)
                                            : compact_pairs<false>(c, base, end, scan);
+      if constexpr (F::kBlocked)
+        if (c.ask) B::request_pairs(c, scan, count);
       inverse_distances(scan, count);
       if constexpr (F::kBlocked) {
         if (B::pairs(c, scan, int(count), block, f.excess, f.fmax)) f.bad = 1;

@@ -113,6 +113,13 @@ struct ContactView {
   std::uint64_t step, seed;
   double dt;
   Index pairs;  // near-pair entries
+  // Where the near pairs are kAskPairs or more, the pass requests each block's data before its
+  // gather (Blocked::request_pairs), and the particle pass the sums' (ParticleView::ask): the
+  // entries' state and results then come from the last-level cache, not a nearer one, and the
+  // hardware's prefetch does not keep up (the hopper of hopper_liggghts.py, 55,000 near pairs;
+  // the tiled bed, 430,000). Below, the requests cost 1-4 % (the 10,000-sphere beds, 27,000).
+  bool ask;
+  static constexpr std::size_t kAskPairs = std::size_t(1) << 15;
   Index n;             // particles (near-list owners)
   int threads;
 
@@ -146,7 +153,7 @@ struct ContactView {
         moving(s.walls.moving()), table(&s.pairs),
         same(s.sphere_material >= 0 ? &s.pairs(s.sphere_material, s.sphere_material) : nullptr),
         step(std::uint64_t(s.run.step + ahead)), seed(s.options.seed), dt(dt_),
-        pairs(Index(l.near_partner.size())),
+        pairs(Index(l.near_partner.size())), ask(l.near_partner.size() >= kAskPairs),
         n(Index(s.particles.size())), threads(s.threads) {}
 };
 
@@ -170,13 +177,9 @@ struct ParticleView {
   // (NeighborList::cut_mask and entry_mask: 0 for alike spheres, read once).
   Index radius_mask, body_mask;
   bool flat;
-  // The flat sums request their entries' results ahead (ParticlePass::flat_sums): where the
-  // pairs' results (56 bytes each) are some megabytes, they come from the last-level cache, and
-  // the hardware's prefetch does not keep up (the hopper of hopper_liggghts.py, 55,000 near
-  // pairs: 9-12 % faster; the tiled bed, 430,000: 9 %). Below, where they come from nearer
-  // caches, the requests cost 1-4 % (the 10,000-sphere beds, 27,000 pairs).
+  // The flat sums request their entries' results ahead (ParticlePass::flat_sums) where the
+  // near pairs are ContactView::kAskPairs or more.
   bool ask;
-  static constexpr std::size_t kAskPairs = std::size_t(1) << 15;
   // The pass also finds max |v - u|^2 (Stepper::run's lists bound in a Lees–Edwards box with
   // no walls; not where fixed spheres are placed after the pass).
   bool relative;
@@ -196,7 +199,8 @@ struct ParticleView {
         n(Index(s.particles.size())), nb(Index(l.busy.size())), loaded(l.loaded.data()),
         sums(l, s.contacts, s.particles), sum_entry(l.sum_entry.data()),
         sum_offset(l.sum_offset.data()), radius_mask(l.cut_mask), body_mask(l.entry_mask),
-        flat(l.sum_offset.size() == std::size_t(nb) + 1), ask(l.near_partner.size() >= kAskPairs),
+        flat(l.sum_offset.size() == std::size_t(nb) + 1),
+        ask(l.near_partner.size() >= ContactView::kAskPairs),
         relative(s.streaming() && !s.fixed),
         flow(s.domain.mean_flow()), threads(s.threads), dt(dt_), gx(dt_ * s.options.gravity.x()),
         gy(dt_ * s.options.gravity.y()), gz(dt_ * s.options.gravity.z()) {}
